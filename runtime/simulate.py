@@ -496,6 +496,22 @@ def free_roots(model, parents):
     return out
 
 
+def joint_starts(info, nu, free):
+    """eomc_implicit.joint: per speed the first speed of its joint, from NAME.json's implicit "joints"
+    (the speeds of each joint of several speeds, compiler/formulations/recursive.implicit_metadata),
+    or None when every such joint is a root free joint in ``free`` (free_roots: its speeds' velocity
+    before the joint is 0, and the C skips them) -- a contact's bias (fs_point_bias) then runs the
+    one-speed code.  A model built before the json carried "joints" gets None too."""
+    joints = [[int(s) for s in j] for j in info.get("joints", ())]
+    if all(j[0] in free and len(j) == 6 for j in joints):
+        return None
+    out = list(range(nu))
+    for j in joints:
+        for s in j:
+            out[s] = min(j)
+    return out
+
+
 def implicit_terms(model):
     """The C ``eomc_implicit`` of ``model`` (its NAME_implicit and the structure NAME.json's
     "implicit" gives), or None when the model has none: then method="implicitfast" runs the
@@ -519,6 +535,7 @@ def implicit_terms(model):
             parents = [int(x) for x in info["parents"]]
             tree = len(parents) == model.nu and all(-1 <= q < s for s, q in enumerate(parents))
             free = free_roots(model, parents)
+            joint = joint_starts(info, model.nu, free)
             keep = (ffi.new("int[]", starts), ffi.new("int[]", chain or [0]),
                     ffi.new("int[]", parents) if tree else ffi.NULL, ffi.new("int[]", free or [0]))
             st = ffi.new("eomc_implicit *")
@@ -534,6 +551,9 @@ def implicit_terms(model):
             apart = [int(k) for k in info.get("energy_apart", ())]
             keep += (ffi.new("int[]", apart or [0]),)
             st.nenergy_apart, st.energy_apart = len(apart), keep[-1]
+            if joint is not None:
+                keep += (ffi.new("int[]", joint),)
+                st.joint = keep[-1]
             found = (st, keep, fp)
     model._implicit_struct = found
     return found[0]
@@ -602,7 +622,7 @@ def implicit_for_run(model, p, split=IMPLICITFAST_SPLIT):
     st.terms, st.ncontact, st.chain_start, st.chain = base.terms, base.ncontact, base.chain_start, base.chain
     st.parent, st.work_len, st.depth_limit, st.split = base.parent, base.work_len, lim, float(split)
     st.nfree, st.free, st.terms_const, st.energy = base.nfree, base.free, base.terms_const, base.energy
-    st.nenergy_apart, st.energy_apart = base.nenergy_apart, base.energy_apart
+    st.nenergy_apart, st.energy_apart, st.joint = base.nenergy_apart, base.energy_apart, base.joint
     return st, (st, lim, base)     # the caller keeps the second alive while C runs
 
 

@@ -278,7 +278,10 @@ class Recursive(Formulation):
         those that move one body and not the other, the first body's as ~s = -1 - s (a minus in
         the runtime's J; the speeds that move both move the point alike on both and cancel): the
         points the lowering gave slopes (``sym.implicit_pairs``: the pair table's, and the inlined
-        pairs' with pairs.INLINE_SLOPES)."""
+        pairs' with pairs.INLINE_SLOPES).  "joints": the speeds of each joint of several speeds (a
+        free joint, a ball, a planar joint: axes fixed in the child body, so each speed's axis turns
+        with the body, not with the speed before it: a contact's bias, fs_point_bias); absent when
+        there is none."""
         bodies = self.tree.bodies
         own = [[s for s, _ in b.dofs] for b in bodies]
 
@@ -298,6 +301,9 @@ class Recursive(Formulation):
                             "speeds": [s for s in b if s not in a] + [~s for s in a if s not in b]})
         out = {"contacts": entries, "parents": parent,
                "layout": implicit_layout(nq, nu, len(entries), sym.implicit_energy is not None)}
+        joints = [list(o) for o in own if len(o) > 1]
+        if joints:      # joints of several speeds, axes fixed in their child (eomc_implicit.joint)
+            out["joints"] = joints
         if sym.implicit_energy:     # the energy slot leaves these pair points out (tree/contacts.ENERGY_APART)
             first = len(contacts)
             out["energy_apart"] = list(range(first, first + sym.implicit_energy))

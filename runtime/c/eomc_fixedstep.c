@@ -734,15 +734,16 @@ static void fs_transport(double *A, const double *M, const double *u, int s, int
  *
  *   d/dt J[:, k] = (w_a x w_k) x p + w_k x vp + w_a x v0_k + v_a x w_k
  *
- * V_a: the sum of the chain's screws times speeds before k (the chain is the contact body's path to
- * the root, so those are k's ancestors, each joint's axis fixed in its parent); a root free joint's six
- * axes are its own body's (body-frame speeds), V_a = the sum over all six, so together they add
- * V_f x V_f = 0.  Summed: a = B_w x p + B_v + w x vp, B = sum_k V_a x (s_k u_k) (spatial cross
- * product), w the body's angular velocity: about 30 flops a speed.  A ball joint's three speeds
- * (eomc's: body-frame) are each taken as carried by the one before (as MJCF's hinges in one body
- * are), which they are not: they all turn with their body, so each should see the V before the
- * ball (as a root free joint's do; measured, session 28, helper pairbias: 3-43 % of |a| off, 2e-11
- * with that rule); the residual test still judges the step.
+ * V_a: the sum of the chain's screws times speeds before k's joint (the chain is the contact body's
+ * path to the root, so those are k's ancestors).  Every joint's axes are fixed in its child body, so
+ * V_a = V_before + V_J, V_J its own speeds' screws; summed over the joint, V_J x V_J = 0 leaves
+ * V_before x V_J: each of a joint's speeds sees the V before its joint.  For a one-speed joint that
+ * is the V before k; a joint of several speeds (a ball, a planar joint, a free joint below the root:
+ * eomc_implicit.joint) must not take each as carried by the one before, as a chain of hinges is
+ * (measured, session 28, helper pairbias, a ball-jointed arm: 3-43 % of |a| off; session 29,
+ * ballbias: with the joint's V, 1e-11).  A root free joint's V before is 0: it adds nothing and is
+ * skipped (eomc_implicit.free).  Summed: a = B_w x p + B_v + w x vp, B = sum_k V_a x (s_k u_k) (spatial
+ * cross product), w the body's angular velocity: about 30 flops a speed.
  * Why (session 27, helper releaseslope): traced on gymnasium's humanoid at t = 0.75 s, its feet's
  * contacts went from pushing to clipped inside every step (the damped law's release) and back in the
  * next half, 3 calls a step: J(q) u1 at the end was 0.064 m/s upwards, J(q0) u1 0.018, J(q0) du 0.003 --
@@ -766,6 +767,7 @@ static int fs_point_bias(const eomc_implicit *imp, const double *scr, const doub
 {
     int order[FS_CHAIN], pair = 0;
     double V[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, B[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    double Vg[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     if (m > FS_CHAIN) return 0;
     for (int k = 0; k < m; k++) {
         pair |= cols[k] < 0;
@@ -781,17 +783,21 @@ static int fs_point_bias(const eomc_implicit *imp, const double *scr, const doub
     if (pair) return imp->parent ? fs_pair_bias(imp, scr, u, order, m, p, vp, a) : 0;
     for (int i = 0; i < m; i++) {
         int k = order[i], own = 0;
-        const double *w = scr + 6 * (size_t)k;
+        const double *w = scr + 6 * (size_t)k, *Vk = V;
         double S[6];
         for (int x = 0; x < 6; x++) S[x] = w[x] * u[k];
         for (int r = 0; r < imp->nfree; r++) own |= k >= imp->free[r] && k < imp->free[r] + 6;
+        if (imp->joint) {                             /* V before k's joint (eomc_implicit.joint) */
+            if (imp->joint[k] == k) memcpy(Vg, V, sizeof Vg);
+            Vk = Vg;
+        }
         if (!own) {                                   /* B += V x S (spatial), V the speeds before k */
-            B[0] += V[1] * S[2] - V[2] * S[1];
-            B[1] += V[2] * S[0] - V[0] * S[2];
-            B[2] += V[0] * S[1] - V[1] * S[0];
-            B[3] += (V[1] * S[5] - V[2] * S[4]) + (V[4] * S[2] - V[5] * S[1]);
-            B[4] += (V[2] * S[3] - V[0] * S[5]) + (V[5] * S[0] - V[3] * S[2]);
-            B[5] += (V[0] * S[4] - V[1] * S[3]) + (V[3] * S[1] - V[4] * S[0]);
+            B[0] += Vk[1] * S[2] - Vk[2] * S[1];
+            B[1] += Vk[2] * S[0] - Vk[0] * S[2];
+            B[2] += Vk[0] * S[1] - Vk[1] * S[0];
+            B[3] += (Vk[1] * S[5] - Vk[2] * S[4]) + (Vk[4] * S[2] - Vk[5] * S[1]);
+            B[4] += (Vk[2] * S[3] - Vk[0] * S[5]) + (Vk[5] * S[0] - Vk[3] * S[2]);
+            B[5] += (Vk[0] * S[4] - Vk[1] * S[3]) + (Vk[3] * S[1] - Vk[4] * S[0]);
         }
         for (int x = 0; x < 6; x++) V[x] += S[x];
     }
@@ -818,24 +824,30 @@ static int fs_pair_bias(const eomc_implicit *imp, const double *scr, const doubl
                         const double *p, const double *vp, double *a)
 {
     double V0[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, D[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, VB[6], VA[6];
-    double pa[3], dw[3];
+    double pa[3], dw[3], Vg[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     for (int k = imp->parent[fs_speed(order[0])]; k >= 0; k = imp->parent[k])
         for (int x = 0; x < 6; x++) V0[x] += scr[6 * (size_t)k + x] * u[k];
     memcpy(VB, V0, sizeof VB);
     memcpy(VA, V0, sizeof VA);
     for (int i = 0; i < m; i++) {
         int k = fs_speed(order[i]), own = 0;
-        const double *w = scr + 6 * (size_t)k;
+        const double *w = scr + 6 * (size_t)k, *Vk;
         double S[6], *V = order[i] >= 0 ? VB : VA, X[6];
         for (int x = 0; x < 6; x++) S[x] = w[x] * u[k];
         for (int r = 0; r < imp->nfree; r++) own |= k >= imp->free[r] && k < imp->free[r] + 6;
+        Vk = V;
+        if (imp->joint) {                             /* that side's V before k's joint (one side's
+                                                         speeds: a joint moves one body) */
+            if (imp->joint[k] == k) memcpy(Vg, V, sizeof Vg);
+            Vk = Vg;
+        }
         if (!own) {                                   /* D +-= V x S, V that side's speeds before k */
-            X[0] = V[1] * S[2] - V[2] * S[1];
-            X[1] = V[2] * S[0] - V[0] * S[2];
-            X[2] = V[0] * S[1] - V[1] * S[0];
-            X[3] = (V[1] * S[5] - V[2] * S[4]) + (V[4] * S[2] - V[5] * S[1]);
-            X[4] = (V[2] * S[3] - V[0] * S[5]) + (V[5] * S[0] - V[3] * S[2]);
-            X[5] = (V[0] * S[4] - V[1] * S[3]) + (V[3] * S[1] - V[4] * S[0]);
+            X[0] = Vk[1] * S[2] - Vk[2] * S[1];
+            X[1] = Vk[2] * S[0] - Vk[0] * S[2];
+            X[2] = Vk[0] * S[1] - Vk[1] * S[0];
+            X[3] = (Vk[1] * S[5] - Vk[2] * S[4]) + (Vk[4] * S[2] - Vk[5] * S[1]);
+            X[4] = (Vk[2] * S[3] - Vk[0] * S[5]) + (Vk[5] * S[0] - Vk[3] * S[2]);
+            X[5] = (Vk[0] * S[4] - Vk[1] * S[3]) + (Vk[3] * S[1] - Vk[4] * S[0]);
             if (order[i] >= 0)
                 for (int x = 0; x < 6; x++) D[x] += X[x];
             else

@@ -224,6 +224,7 @@ __attribute__((target(FSL_TARGET))) static int FSL_BIAS(const eomc_implicit *imp
     const FSL_V zero = {0};
     int order[FS_CHAIN], pair = 0;
     FSL_V V[6] = {zero, zero, zero, zero, zero, zero}, B[6] = {zero, zero, zero, zero, zero, zero};
+    FSL_V Vg[6] = {zero, zero, zero, zero, zero, zero};
 #define FSL_SCREW(k, x) (*(const FSL_V *)(OUT + (L->screw + 6 * (size_t)(k) + (size_t)(x)) * stride))
     if (m > FS_CHAIN) return 0;
     for (int k = 0; k < m; k++) {
@@ -250,16 +251,21 @@ __attribute__((target(FSL_TARGET))) static int FSL_BIAS(const eomc_implicit *imp
         for (int i = 0; i < m; i++) {
             int k = fs_speed(order[i]), own = 0;
             FSL_V S[6], X[6], uk, *Vs = order[i] >= 0 ? VB : VA;
+            const FSL_V *Vk = Vs;
             memcpy(&uk, Uv + (size_t)k * stride, sizeof uk);
             for (int x = 0; x < 6; x++) S[x] = FSL_SCREW(k, x) * uk;
             for (int r = 0; r < imp->nfree; r++) own |= k >= imp->free[r] && k < imp->free[r] + 6;
+            if (imp->joint) {                         /* that side's V before k's joint */
+                if (imp->joint[k] == k) memcpy(Vg, Vs, sizeof Vg);
+                Vk = Vg;
+            }
             if (!own) {
-                X[0] = Vs[1] * S[2] - Vs[2] * S[1];
-                X[1] = Vs[2] * S[0] - Vs[0] * S[2];
-                X[2] = Vs[0] * S[1] - Vs[1] * S[0];
-                X[3] = (Vs[1] * S[5] - Vs[2] * S[4]) + (Vs[4] * S[2] - Vs[5] * S[1]);
-                X[4] = (Vs[2] * S[3] - Vs[0] * S[5]) + (Vs[5] * S[0] - Vs[3] * S[2]);
-                X[5] = (Vs[0] * S[4] - Vs[1] * S[3]) + (Vs[3] * S[1] - Vs[4] * S[0]);
+                X[0] = Vk[1] * S[2] - Vk[2] * S[1];
+                X[1] = Vk[2] * S[0] - Vk[0] * S[2];
+                X[2] = Vk[0] * S[1] - Vk[1] * S[0];
+                X[3] = (Vk[1] * S[5] - Vk[2] * S[4]) + (Vk[4] * S[2] - Vk[5] * S[1]);
+                X[4] = (Vk[2] * S[3] - Vk[0] * S[5]) + (Vk[5] * S[0] - Vk[3] * S[2]);
+                X[5] = (Vk[0] * S[4] - Vk[1] * S[3]) + (Vk[3] * S[1] - Vk[4] * S[0]);
                 if (order[i] >= 0)
                     for (int x = 0; x < 6; x++) B[x] += X[x];
                 else
@@ -279,16 +285,21 @@ __attribute__((target(FSL_TARGET))) static int FSL_BIAS(const eomc_implicit *imp
     for (int i = 0; i < m; i++) {
         int k = order[i], own = 0;
         FSL_V S[6], uk;
+        const FSL_V *Vk = V;
         memcpy(&uk, Uv + (size_t)k * stride, sizeof uk);
         for (int x = 0; x < 6; x++) S[x] = FSL_SCREW(k, x) * uk;
         for (int r = 0; r < imp->nfree; r++) own |= k >= imp->free[r] && k < imp->free[r] + 6;
+        if (imp->joint) {                             /* V before k's joint */
+            if (imp->joint[k] == k) memcpy(Vg, V, sizeof Vg);
+            Vk = Vg;
+        }
         if (!own) {
-            B[0] += V[1] * S[2] - V[2] * S[1];
-            B[1] += V[2] * S[0] - V[0] * S[2];
-            B[2] += V[0] * S[1] - V[1] * S[0];
-            B[3] += (V[1] * S[5] - V[2] * S[4]) + (V[4] * S[2] - V[5] * S[1]);
-            B[4] += (V[2] * S[3] - V[0] * S[5]) + (V[5] * S[0] - V[3] * S[2]);
-            B[5] += (V[0] * S[4] - V[1] * S[3]) + (V[3] * S[1] - V[4] * S[0]);
+            B[0] += Vk[1] * S[2] - Vk[2] * S[1];
+            B[1] += Vk[2] * S[0] - Vk[0] * S[2];
+            B[2] += Vk[0] * S[1] - Vk[1] * S[0];
+            B[3] += (Vk[1] * S[5] - Vk[2] * S[4]) + (Vk[4] * S[2] - Vk[5] * S[1]);
+            B[4] += (Vk[2] * S[3] - Vk[0] * S[5]) + (Vk[5] * S[0] - Vk[3] * S[2]);
+            B[5] += (Vk[0] * S[4] - Vk[1] * S[3]) + (Vk[3] * S[1] - Vk[4] * S[0]);
         }
         for (int x = 0; x < 6; x++) V[x] += S[x];
     }

@@ -117,6 +117,12 @@ typedef struct eomc_implicit {
        them touches (depth > 0) the watch calls watch_fn */
     int nenergy_apart;
     const int *energy_apart;
+    /* NULL (every joint of several speeds is a root free joint, or there is none), or nu: each
+       speed's joint's first speed (NAME.json implicit.joints: a ball, a planar joint, a free joint
+       below the root; the others their own).  Their axes are fixed in their child body, so each
+       of a joint's speeds turns with the velocity before the joint, not after the speed before it
+       (a contact's bias, eomc_fixedstep.c fs_point_bias) */
+    const int *joint;
 } eomc_implicit;
 
 /* One joint limit's spring whose stored energy the watched output leaves out (MJCF's: unilateral

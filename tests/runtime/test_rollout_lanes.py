@@ -402,6 +402,55 @@ def test_implicitfast_lanes_turn_a_free_joints_momentum_as_the_scalar_path(tmp_p
     assert not np.array_equal(off.x, want.x)
 
 
+@pytest.mark.parametrize("name", ["ball", "frames"])
+def test_implicitfast_lanes_take_a_joint_of_several_speeds_bias_as_the_scalar_path(tmp_path, name):
+    """A contact below a joint of several speeds (test_implicitfast_terms's ball arm on a slide, and
+    its URDF with a floating joint and a planar joint below hinges, their tips on the floor): the
+    lanes kernel's FSL_BIAS takes each joint speed's velocity before its joint
+    (eomc_implicit.joint) as the scalar fs_point_bias does, bit for bit, and without it (joint NULL on
+    both paths: before session 29) the rows differ -- so the joint's bias ran in both."""
+    import warnings
+    from eomc.compiler.mjcf.model import MjcfModel
+    from eomc.runtime.simulate import implicit_terms
+    from .test_implicitfast_terms import _BALL_ARM, _FRAMES_URDF, _LOWER, _touching
+    kw = dict(cache_dir=tmp_path, progress=False, cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG",
+              functions=("rhs", "outputs", "implicit", "implicit_batch"))
+    if name == "ball":
+        (tmp_path / "ball_arm.xml").write_text(_BALL_ARM)
+        m = compile_model(MjcfModel(tmp_path / "ball_arm.xml"), "rl_ball_arm", **kw)
+    else:
+        (tmp_path / "frames.urdf").write_text(_FRAMES_URDF)
+        m = compile_model(str(tmp_path / "frames.urdf"), "rl_frames", ground=True, **kw)
+    rng = np.random.default_rng(7)
+    X0 = np.zeros((13, m.nx)) if m.initial_state is None else np.tile(np.array(m.initial_state, float), (13, 1))
+    X0[:, :m.nq] += rng.uniform(-0.3, 0.3, (13, m.nq))
+    X0[:, m.nq:] = rng.uniform(-2.0, 2.0, (13, m.nu))
+    contacts = [c["name"] for c in m.metadata["implicit"]["contacts"]]
+    for i in range(13):                                   # each tip 0.5 cm in touch
+        for contact, coordinate in _LOWER[name].items():
+            X0[i] = _touching(m, X0[i], contacts.index(contact), coordinate, depth=0.005)
+    run = dict(dt=0.002, steps=100, method="implicitfast", threads=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        want = rollout(m, X0, raise_on_failure=False, **run)
+        got = rollout(m, X0, lanes=True, raise_on_failure=False, **run)
+    assert want.ok.sum() >= 10 and np.array_equal(got.ok, want.ok)      # (a hard landing may go too deep)
+    assert np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    assert np.array_equal(got.unsolved, want.unsolved)
+    imp = implicit_terms(m)
+    joint, imp.joint = imp.joint, m.ffi.NULL
+    assert joint != m.ffi.NULL
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            off = rollout(m, X0, raise_on_failure=False, **run)
+            off_lanes = rollout(m, X0, lanes=True, raise_on_failure=False, **run)
+        assert np.array_equal(off_lanes.x, off.x, equal_nan=True) and np.array_equal(off_lanes.ok, off.ok)
+    finally:
+        imp.joint = joint
+    assert not np.array_equal(off.x, want.x)
+
+
 def _wrapped_batch(model, monkeypatch, after):
     """rollout's NAME_implicit_batch replaced by a cffi callback that makes the real call, then
     after(n, OUT, X) with OUT (size, n) and X (nx, n) as arrays over the batch's columns."""
