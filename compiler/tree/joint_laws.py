@@ -65,7 +65,7 @@ from ..contact.law import step  # noqa: F401 -- ramp's derivative; defined there
 
 __all__ = ["ramp", "step", "JointLaw", "joint_torque", "check_law", "TIME_CONSTANT", "WIDTH", "FRICTION_SPEED", "NAMES",
            "limit_gains", "scale_gains", "limit_spring", "limit_energy", "law_shape", "PUSH_DIVISOR", "JointLawError", "JointScale", "LOAD_GIVE",
-           "ENTRY_GIVE", "ENTRY_RATE", "ENTRY_DEPTH", "entry_gains", "scale_entry_gains"]
+           "ENTRY_GIVE", "ENTRY_RATE", "ENTRY_DEPTH", "entry_gains", "scale_entry_gains", "CARRIED_RATE"]
 
 TIME_CONSTANT = 0.01
 WIDTH = 3e-4
@@ -88,6 +88,12 @@ ENTRY_GIVE = 75 * WIDTH
 # cap costs only while a joint is stopped (session 25's 1000/s, with the stiffness at the bound,
 # made alex's 10 s run 40 -> 92 ms CPU uncapped)
 ENTRY_RATE = 1500.0
+# 1/s: the highest natural frequency sqrt(k / inertia) on its own inertia that the limit's spring of
+# a joint its floating-base robot does not stand on gets (limit_gains' own_load); chosen on Talos
+# and G1 (session 29, ballbias): at 1500 /s G1's wrist roll went 0.0045 past (0.0033 uncapped),
+# Talos's fingertips 0.0073 (its knees' 0.0056 the worst uncapped); at 3000 /s the fingertips 0.004
+# with the same CPU (0.57x of uncapped)
+CARRIED_RATE = 3000.0
 FRICTION_SPEED = 0.01
 
 NAMES = {"lower": "limit_lo", "upper": "limit_hi", "stiffness": "limit_k", "limit_damping": "limit_c",
@@ -164,23 +170,42 @@ class JointScale(tuple):
     (force) it may have to hold at a limit, the inertia it carries when it holds that load (on a
     floating-base robot the rest of the robot's inertia about the joint's axis; at least
     ``inertia``) and the speed (rad/s, m/s) at which it may enter a limit (0: not known); the
-    scales of its default limit stiffness and damping."""
+    scales of its default limit stiffness and damping.  ``own_load`` (an attribute, None: not
+    set): the load of the joint's own subtree alone, for a joint of a floating-base robot whose
+    subtree does not hold what the robot stands on (:func:`limit_gains`: its stiffness capped)."""
 
-    def __new__(cls, inertia, load=0.0, carried=None, speed=0.0):
+    def __new__(cls, inertia, load=0.0, carried=None, speed=0.0, own_load=None):
         inertia = float(inertia)
-        return super().__new__(cls, (inertia, float(load), max(inertia, float(carried or 0.0)), float(speed)))
+        out = super().__new__(cls, (inertia, float(load), max(inertia, float(carried or 0.0)), float(speed)))
+        out.own_load = None if own_load is None else float(own_load)
+        return out
 
 
-def limit_gains(inertia, time_constant=TIME_CONSTANT, load=0.0, carried=None):
+def limit_gains(inertia, time_constant=TIME_CONSTANT, load=0.0, carried=None, own_load=None):
     """(k, c) of the spring-damper at the limit: critically damped, of time constant
     ``time_constant`` on the inertia the joint carries (``carried``, at least ``inertia``),
     stiffened where needed so that a static ``load`` gives at most :data:`LOAD_GIVE`, and
-    critically damped about the carried inertia."""
+    critically damped about the carried inertia.
+
+    ``own_load`` (a joint whose subtree does not hold what its floating-base robot stands on: an
+    arm, a head, a gripper's finger): k at most the stiffness that rings the joint's own inertia at
+    :data:`CARRIED_RATE`, and never below what the own subtree's load and inertia need; c still
+    critically damped about the carried inertia.  Why: such a joint carries the rest of the robot
+    only when that lands on it (a hand, a fingertip), and the load rule sized a Talos gripper's
+    fingertip (own inertia 9e-6 kg m^2) to hold the robot on its reach: k 3e5, a mode of 2e5 /s,
+    half of the BDF steps of Talos's first second (session 28, runctl).  The damping about the
+    carried inertia is what holds a landing (session 29, ballbias: the own subtree's k and c alone
+    let Talos's fingertips go 0.28 rad past, G1's elbows 0.059; with this cap 0.007 and 0.0045)."""
     m = max(inertia, carried or 0.0)
     k, c = m / time_constant ** 2, 2.0 * m / time_constant
     if load / LOAD_GIVE > k:
         k = load / LOAD_GIVE
         c = 2.0 * math.sqrt(k * m)
+    if own_load is not None and m > inertia:
+        cap = max(inertia * CARRIED_RATE ** 2, inertia / time_constant ** 2, own_load / LOAD_GIVE)
+        if k > cap:
+            k = cap
+            c = 2.0 * math.sqrt(k * m)
     return k, c
 
 
@@ -207,7 +232,7 @@ def entry_gains(inertia, k, carried=None, speed=0.0):
 def scale_gains(inertia):
     """:func:`limit_gains` of a :class:`JointScale` (or of a bare inertia): the limit's own (k, c)."""
     if isinstance(inertia, JointScale):
-        return limit_gains(inertia[0], load=inertia[1], carried=inertia[2])
+        return limit_gains(inertia[0], load=inertia[1], carried=inertia[2], own_load=inertia.own_load)
     return limit_gains(inertia)
 
 

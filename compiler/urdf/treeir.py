@@ -225,9 +225,11 @@ def _entry_speed(gravity, mass, reach, inertia, prismatic):
 
 
 def joint_loads(tree, gravity=9.81, inertias=None):
-    """joint name -> (load, carried, speed): the static torque (force) its limit may have to hold, at
-    q = 0, the inertia it then carries and the speed it may enter a limit at (:func:`_entry_speed`;
-    0 without ``inertias``).  The load is the subtree's weight on its lever about
+    """joint name -> (load, carried, speed, own_load): the static torque (force) its limit may have to
+    hold, at q = 0, the inertia it then carries, the speed it may enter a limit at
+    (:func:`_entry_speed`; 0 without ``inertias``) and, on a floating-base robot for a joint whose
+    subtree does not hold what the robot stands on (:func:`_support`), its own subtree's load
+    (None otherwise: joint_laws.limit_gains then caps its stiffness, not its damping).  The load is the subtree's weight on its lever about
     the axis (all of it for a slide) and, on a floating-base robot, the rest of the robot's
     weight on the reach of the subtree (a knee holding up the body through its foot); the
     carried inertia is the rest of the robot's inertia about the joint's axis (what the joint
@@ -251,6 +253,7 @@ def joint_loads(tree, gravity=9.81, inertias=None):
         world[joint.child] = (P[joint.child] + fo.matmul(R[joint.child], body.com), body.mass)
         spin[joint.child] = fo.matmul(R[joint.child], body.inertia, R[joint.child].T)
     floating = any(j.parent is None and j.type in ("floating", "floating_quaternion") for j in tree.joints)
+    support = _support(P, world) if floating else set()
     total = sum(m for _, m in world.values())
     children, parent_of = {}, {}
     for joint in tree.joints:
@@ -271,7 +274,8 @@ def joint_loads(tree, gravity=9.81, inertias=None):
         speed = _entry_speed(gravity, mass, reach, (inertias or {}).get(joint.name, 0.0),
                              joint.type == "prismatic")
         if joint.type == "prismatic":
-            out[joint.name] = (gravity * (mass + rest), rest, speed)
+            out[joint.name] = (gravity * (mass + rest), rest, speed,
+                               gravity * mass if floating and support.isdisjoint(below) else None)
             continue
         a = fo.matmul(R[joint.child], joint.axis)
         origin = P[joint.child]
@@ -286,7 +290,10 @@ def joint_loads(tree, gravity=9.81, inertias=None):
             swung = gravity * tilt * sum(world[b][1] * far for b, far in
                                          _swung_levers(joint.child, below, parent_of, P, world, lever).items())
             load = max(load, swung)
+        own_load = None
         if floating:
+            if support.isdisjoint(below):       # the robot does not stand on this subtree
+                own_load = load
             reach = max([lever(world[b][0]) for b in below] + [lever(P[b]) for b in below])
             if inertias is not None and mass > 0:
                 reach = max(reach, math.sqrt(2.0 * inertias[joint.name] / mass))
@@ -294,8 +301,25 @@ def joint_loads(tree, gravity=9.81, inertias=None):
             inside = set(below)
             carried = sum(fo.matmul(a, spin[b], a) + world[b][1] * lever(world[b][0]) ** 2
                           for b in world if b not in inside)
-        out[joint.name] = (load, carried, speed)
+        out[joint.name] = (load, carried, speed, own_load)
     return out
+
+
+# A body within this fraction of the robot's height (its bodies' origins and centres of mass at
+# q = 0) of its lowest is part of what a floating-base robot stands on (joint_loads: _support)
+SUPPORT_BAND = 0.25
+
+
+def _support(P, world):
+    """The bodies a floating-base robot stands on at q = 0: those whose origin or centre of mass lies
+    within SUPPORT_BAND of the robot's height above its lowest (the feet and shins of a standing
+    robot; every body of one that lies flat).  Why: a joint whose subtree holds them carries the
+    rest of the robot whenever it stands; any other (an arm, a gripper's finger) only when the robot
+    lands on it, and its limit's stiffness is capped (joint_laws.limit_gains)."""
+    low = {b: min(P[b][2], world[b][0][2]) for b in P}
+    high = max(max(P[b][2], world[b][0][2]) for b in P)
+    bottom = min(low.values())
+    return {b for b, z in low.items() if z <= bottom + SUPPORT_BAND * (high - bottom)}
 
 
 def _swung_levers(top, below, parent_of, P, world, lever):

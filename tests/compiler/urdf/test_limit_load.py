@@ -247,3 +247,70 @@ def test_a_joint_resting_on_its_limit_sits_on_the_limit_s_own_spring():
     rest = LOAD_GIVE + 2 * WIDTH
     assert k * float(limit_spring(rest, WIDTH)) >= load     # it comes to rest within `rest` ...
     assert rest < ENTRY_DEPTH                               # ... before the entry spring starts
+
+
+GRIPPER = """<?xml version="1.0"?>
+<robot name="gripper">
+  <link name="torso"><inertial><origin xyz="0 0 0.3"/><mass value="20"/>
+    <inertia ixx="0.5" iyy="0.5" izz="0.2" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="shin"><inertial><origin xyz="0 0 -0.25"/><mass value="2"/>
+    <inertia ixx="0.04" iyy="0.04" izz="0.002" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="foot"><inertial><origin xyz="0.05 0 -0.02"/><mass value="0.5"/>
+    <inertia ixx="0.001" iyy="0.002" izz="0.002" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="hand"><inertial><origin xyz="0.1 0 0"/><mass value="0.4"/>
+    <inertia ixx="0.0004" iyy="0.0004" izz="0.0004" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="finger"><inertial><origin xyz="0.02 0 0"/><mass value="0.01"/>
+    <inertia ixx="1e-6" iyy="1e-6" izz="1e-6" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="knee" type="revolute"><parent link="torso"/><child link="shin"/><axis xyz="0 1 0"/>
+    <limit lower="-0.3" upper="0.3" effort="1" velocity="1"/></joint>
+  <joint name="ankle" type="revolute"><parent link="shin"/><child link="foot"/><origin xyz="0 0 -0.5"/>
+    <axis xyz="0 1 0"/><limit lower="-0.3" upper="0.3" effort="1" velocity="1"/></joint>
+  <joint name="wrist" type="revolute"><parent link="torso"/><child link="hand"/><origin xyz="0.2 0 0.3"/>
+    <axis xyz="0 1 0"/><limit lower="-0.5" upper="0.5" effort="1" velocity="1"/></joint>
+  <joint name="finger" type="revolute"><parent link="hand"/><child link="finger"/><origin xyz="0.15 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="0" upper="0.5" effort="1" velocity="1"/></joint>
+</robot>
+"""
+
+
+def test_a_light_joint_the_robot_does_not_stand_on_gets_a_capped_stiffness(tmp_path):
+    """Session 28's runctl: the load rule sized each of Talos's gripper fingertips (own inertia 9e-6
+    kg m^2) to hold the robot on its reach, k ~ 3e5: a mode of 2e5 /s on its own inertia, half of the
+    BDF steps of Talos's first second.  A joint whose subtree does not hold what a floating-base
+    robot stands on at q = 0 (treeir._support: the bodies in the lowest quarter of its height) keeps
+    the rule's load, carried inertia and damping about it, but its stiffness is at most the one that
+    rings its own inertia at CARRIED_RATE, and never below its own subtree's rule; the leg's joints,
+    which hold the foot, and every joint of a fixed-base robot, keep the rule as it was."""
+    from eomc.compiler.tree.joint_laws import CARRIED_RATE
+    from eomc.compiler.urdf.treeir import joint_loads
+    path = tmp_path / "gripper.urdf"
+    path.write_text(GRIPPER)
+    tree = build_tree(read_urdf(path), floating_base=True)
+    scales = joint_inertias(tree)
+    assert scales["knee"].own_load is None and scales["ankle"].own_load is None     # the robot stands on them
+    finger, wrist = scales["finger"], scales["wrist"]
+    assert finger.own_load is not None and wrist.own_load is not None
+    own, load, carried, _ = finger
+    assert own == pytest.approx(1e-6 + 0.01 * 0.02 ** 2, rel=1e-12)
+    rule = max(carried / TIME_CONSTANT ** 2, load / LOAD_GIVE)           # the rule's k, uncapped: far stiffer
+    assert rule > 10 * own * CARRIED_RATE ** 2
+    k, c = scale_gains(finger)
+    assert k == pytest.approx(own * CARRIED_RATE ** 2, rel=1e-12)         # capped: sqrt(k / own) = CARRIED_RATE
+    assert c == pytest.approx(2 * math.sqrt(k * carried), rel=1e-12)     # damped about the carried inertia
+    assert scale_entry_gains(finger) == (0.0, 0.0)
+    # the uncapped rule (a joint the robot stands on) for the same numbers; the knee is that rule
+    assert scale_gains(JointScale(own, load, carried))[0] == pytest.approx(rule, rel=1e-12)
+    knee = scales["knee"]
+    k_knee = max(knee[2] / TIME_CONSTANT ** 2, knee[1] / LOAD_GIVE)
+    assert scale_gains(knee) == pytest.approx((k_knee, 2 * math.sqrt(k_knee * knee[2])), rel=1e-12)
+    # the cap never goes below the joint's own subtree's rule (a fixed base's)
+    heavy = JointScale(own, load, carried, own_load=10 * own * CARRIED_RATE ** 2 * LOAD_GIVE)
+    assert scale_gains(heavy)[0] == pytest.approx(10 * own * CARRIED_RATE ** 2, rel=1e-12)
+    # on a fixed base nothing is capped: every joint its own subtree's rule, as before
+    fixed = joint_inertias(build_tree(read_urdf(path)))
+    assert all(s.own_load is None for s in fixed.values())
+    assert all(v[3] is None for v in joint_loads(build_tree(read_urdf(path))).values())
+    model = eomc.compile(UrdfModel(path, floating_base=True), functions=("rhs",), cache_dir=tmp_path / "c",
+                         progress=False)
+    p = dict(zip(model.param_names, model.param_defaults))
+    assert (p["limit_k_finger"], p["limit_c_finger"]) == pytest.approx((k, c), rel=1e-12)
