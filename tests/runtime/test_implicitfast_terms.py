@@ -1159,3 +1159,50 @@ def test_a_joint_of_several_speeds_turns_each_with_its_body_in_the_contact_bias(
             checked += 1
     print(name, checked, old_worst)
     assert checked >= 6 and old_worst > 1e-3, (checked, old_worst)
+
+
+_BALL_PAIR = """<mujoco><option timestep="0.002"/><worldbody><geom name="floor" type="plane" size="5 5 .1"/>
+<body name="base" pos="0 0 0.5"><joint name="lift" type="slide" axis="0 0 1"/><geom name="base" type="sphere" size="0.02" mass="0.5"/>
+<body name="armA" pos="-0.12 0 0"><joint name="ba" type="ball"/><geom name="armA" type="capsule" fromto="0 0 0 0.1 0 -0.3" size="0.03" mass="1"/></body>
+<body name="armB" pos="0.12 0 0"><joint name="bb" type="ball"/><geom name="armB" type="capsule" fromto="0 0 0 -0.1 0 -0.3" size="0.03" mass="1"/></body>
+</body></worldbody></mujoco>"""
+
+
+def test_a_pairs_bias_below_two_balls_is_the_derivative_of_its_relative_velocity(tmp_path, point_bias):
+    """fs_pair_bias with eomc_implicit.joint: two ball-jointed arms on one slide whose capsules press
+    on each other (a pair across two branches, each side's speeds a ball's three), through the pair
+    table (TABLE_FROM 1: one pair would be inlined, without slopes), against the central difference
+    of the relative velocity along q' (_relative_velocity_along_the_motion) to 1e-6 of |a| (measured
+    1.4e-11 to 1.2e-10 on 9 pressed states); without the joints (joints=False, before session 29)
+    more than 1e-3 of |a| off (measured 0.28 to 2.1)."""
+    from eomc.compiler.contact import pairs
+    from eomc.compiler.mjcf.model import MjcfModel
+    (tmp_path / "ball_pair.xml").write_text(_BALL_PAIR)
+    table_from, pairs.TABLE_FROM = pairs.TABLE_FROM, 1
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            m = eomc.compile(MjcfModel(tmp_path / "ball_pair.xml"), name="ift_ball_pair",
+                             functions=("rhs", "outputs", "implicit"), cache_dir=tmp_path, progress=False)
+    finally:
+        pairs.TABLE_FROM = table_from
+    info = m.metadata["implicit"]
+    c = next(k for k, item in enumerate(info["contacts"]) if item.get("pair"))
+    assert sorted(info["contacts"][c]["speeds"]) == [-4, -3, -2, 4, 5, 6]      # armB's ball, armA's negated
+    rng = np.random.default_rng(11)
+    checked, old_worst = 0, 0.0
+    for _ in range(12):
+        x = np.array(m.initial_state, dtype=float)
+        x[:m.nq] += 0.05 * rng.normal(size=m.nq)
+        x[m.nq:] = rng.normal(size=m.nu)
+        out, at = implicit_terms_at(m, x)
+        if not out[at["contact"] + 25 * c] > 0.0:
+            continue
+        a, took = point_bias(m, x, c)
+        old, _ = point_bias(m, x, c, joints=False)
+        fd, _ = _relative_velocity_along_the_motion(m, x, c, 1e-5)
+        assert took == 1 and np.linalg.norm(fd) > 1e-2
+        assert np.linalg.norm(a - fd) <= 1e-6 * np.linalg.norm(fd), (a, fd)
+        old_worst = max(old_worst, np.linalg.norm(old - fd) / np.linalg.norm(fd))
+        checked += 1
+    assert checked >= 4 and old_worst > 1e-3, (checked, old_worst)

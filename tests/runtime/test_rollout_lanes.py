@@ -402,20 +402,29 @@ def test_implicitfast_lanes_turn_a_free_joints_momentum_as_the_scalar_path(tmp_p
     assert not np.array_equal(off.x, want.x)
 
 
-@pytest.mark.parametrize("name", ["ball", "frames"])
+@pytest.mark.parametrize("name", ["ball", "frames", "pair"])
 def test_implicitfast_lanes_take_a_joint_of_several_speeds_bias_as_the_scalar_path(tmp_path, name):
     """A contact below a joint of several speeds (test_implicitfast_terms's ball arm on a slide, and
-    its URDF with a floating joint and a planar joint below hinges, their tips on the floor): the
+    its URDF with a floating joint and a planar joint below hinges, their tips on the floor; two
+    ball-jointed arms pressing on each other, a pair through the pair table): the
     lanes kernel's FSL_BIAS takes each joint speed's velocity before its joint
     (eomc_implicit.joint) as the scalar fs_point_bias does, bit for bit, and without it (joint NULL on
     both paths: before session 29) the rows differ -- so the joint's bias ran in both."""
     import warnings
     from eomc.compiler.mjcf.model import MjcfModel
     from eomc.runtime.simulate import implicit_terms
-    from .test_implicitfast_terms import _BALL_ARM, _FRAMES_URDF, _LOWER, _touching
+    from eomc.compiler.contact import pairs
+    from .test_implicitfast_terms import _BALL_ARM, _BALL_PAIR, _FRAMES_URDF, _LOWER, _touching
     kw = dict(cache_dir=tmp_path, progress=False, cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG",
               functions=("rhs", "outputs", "implicit", "implicit_batch"))
-    if name == "ball":
+    if name == "pair":                                    # (one pair: through the table, with slopes)
+        (tmp_path / "ball_pair.xml").write_text(_BALL_PAIR)
+        table_from, pairs.TABLE_FROM = pairs.TABLE_FROM, 1
+        try:
+            m = compile_model(MjcfModel(tmp_path / "ball_pair.xml"), "rl_ball_pair", **kw)
+        finally:
+            pairs.TABLE_FROM = table_from
+    elif name == "ball":
         (tmp_path / "ball_arm.xml").write_text(_BALL_ARM)
         m = compile_model(MjcfModel(tmp_path / "ball_arm.xml"), "rl_ball_arm", **kw)
     else:
@@ -426,10 +435,13 @@ def test_implicitfast_lanes_take_a_joint_of_several_speeds_bias_as_the_scalar_pa
     X0[:, :m.nq] += rng.uniform(-0.3, 0.3, (13, m.nq))
     X0[:, m.nq:] = rng.uniform(-2.0, 2.0, (13, m.nu))
     contacts = [c["name"] for c in m.metadata["implicit"]["contacts"]]
-    for i in range(13):                                   # each tip 0.5 cm in touch
+    if name == "pair":                                    # the arms pressed together, off the floor
+        X0[:, :m.nq] = np.array(m.initial_state, float)[:m.nq] + rng.uniform(-0.05, 0.05, (13, m.nq))
+        X0[:, m.nq:] = rng.uniform(-1.0, 1.0, (13, m.nu))
+    for i in range(13 if name != "pair" else 0):          # each tip 0.5 cm in touch
         for contact, coordinate in _LOWER[name].items():
             X0[i] = _touching(m, X0[i], contacts.index(contact), coordinate, depth=0.005)
-    run = dict(dt=0.002, steps=100, method="implicitfast", threads=1)
+    run = dict(dt=0.002, steps=100 if name != "pair" else 30, method="implicitfast", threads=1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         want = rollout(m, X0, raise_on_failure=False, **run)
