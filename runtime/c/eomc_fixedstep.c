@@ -985,6 +985,16 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
  * (about 3200 of them per step).  Here the same updates run on vectors of one entry of every lane's
  * matrix, the slots of M's tree pattern (fs_columns) listed once in the elimination's order. */
 
+/* One elimination pattern of the lanes' matrices, over the slots of every pair's fill (the slot
+ * map: eomc_fs_lanes.slot): its lists (fs_ancestors'), per entry x the slots (anc[x], k) and (k,
+ * anc[x]) (lo, up), the factorisation's slots in its order (upd: per k from nu - 1 down, the na
+ * slots (k, a[y]); per x, (a[x], k) and the na slots (a[x], a[y])), and the slots it has (the ones
+ * the kernel fills from M). */
+typedef struct fsl_pattern {
+    int *start, *anc, *lo, *up, *upd, *slots;
+    int nslots;
+} fsl_pattern;
+
 struct eomc_fs_lanes {
     fs_layout L;
     int nq, nu, lanes, width, nslot;   /* width: the kernel's lanes (lanes: a multiple of it) */
@@ -1000,6 +1010,21 @@ struct eomc_fs_lanes {
     int *upd;            /* per k from nu - 1 down: the na slots (k, a[y]); per x, (a[x], k) and
                             the na slots (a[x], a[y]) */
     int *cslot_start, *cslot;  /* per contact, the m x m slots (chain[a], chain[k]) */
+    /* The pattern a call factors with (as the scalar fs_assemble's per-step fill, fs_pattern): M's
+     * tree's (base), or, when a body-body pair across two branches has a depth > 0 in one of the
+     * group's lanes, the tree's with the fill of every such pair (grown: made for the last set of
+     * them, kept while it is the same).  full: every pair's fill (the slot map's), the pattern
+     * when M has no tree or more than 64 speeds (dyn 0).  mstart, mcols: M's row i's columns that
+     * can be nonzero (base's: fs_columns), read by the residual's product and the transport. */
+    fsl_pattern full, base, grown;
+    int dyn, have_grown, nxc;
+    int *xc;                          /* the nxc contacts across two branches */
+    int *mstart, *mcols;
+    unsigned long long *tbits, *xbits, *gbits, *bits;   /* nu: the tree's; nc: each contact's speeds;
+                                                           nu: grown's and scratch */
+    int *xon;                         /* nc: the kernel's scratch (the ones in touch) */
+    unsigned char *mark;              /* nslot bytes (fsl_lists) */
+    void *pmem;
     double *A, *b, *J, *GJ;    /* 64-byte aligned: nslot, nu, 3 nu, 3 nu vectors of lanes */
     double *D, *R, *V;         /* nu, nu, nq vectors: fs_fast_try's du and dv, the rate */
     void *mem;
@@ -1017,6 +1042,73 @@ struct eomc_fs_lanes {
  * took 0.83-0.95 of the 4-wide's rollout: hopper 0.87, walker2d 0.83, ant 0.86-0.95, humanoid
  * 0.94-0.95, Go2 0.85, G1 0.885 -- same bits.  $EOMC_FS_LANES_WIDTH=4 keeps the 4-wide (the tests
  * run both; read once per rollout thread). */
+/* P's lo, up, upd and slots from its lists start and anc, through w's slot map; 0, or -1 when an
+ * entry of the pattern has no slot (not a pattern within every pair's fill). */
+static int fsl_lists(eomc_fs_lanes *w, fsl_pattern *P)
+{
+    const size_t n = (size_t)w->nu;
+    int nupd = 0, ns = 0;
+    memset(w->mark, 0, (size_t)w->nslot);
+    for (size_t k = 0; k < n; k++) {
+        if (w->slot[k * n + k] < 0) return -1;
+        w->mark[w->slot[k * n + k]] = 1;
+    }
+    for (int k = w->nu - 1; k >= 0; k--) {
+        const int *a = P->anc + P->start[k];
+        int na = P->start[k + 1] - P->start[k];
+        for (int y = 0; y < na; y++) P->upd[nupd++] = w->slot[(size_t)k * n + (size_t)a[y]];
+        for (int x = 0; x < na; x++) {
+            P->upd[nupd++] = w->slot[(size_t)a[x] * n + (size_t)k];
+            for (int y = 0; y < na; y++) P->upd[nupd++] = w->slot[(size_t)a[x] * n + (size_t)a[y]];
+        }
+    }
+    for (int i = 0; i < nupd; i++)
+        if (P->upd[i] < 0) return -1;
+    for (int k = 0; k < w->nu; k++)
+        for (int x = P->start[k]; x < P->start[k + 1]; x++) {
+            P->lo[x] = w->slot[(size_t)P->anc[x] * n + (size_t)k];
+            P->up[x] = w->slot[(size_t)k * n + (size_t)P->anc[x]];
+            if (P->lo[x] < 0 || P->up[x] < 0) return -1;
+            w->mark[P->lo[x]] = w->mark[P->up[x]] = 1;
+        }
+    for (int x = 0; x < w->nslot; x++)
+        if (w->mark[x]) P->slots[ns++] = x;
+    P->nslots = ns;
+    return 0;
+}
+
+/* The pattern for the tree with the fill of the contacts xs[0 .. nx) (each across two branches):
+ * fs_couple and fs_fill's bits and lists (the scalar path's for the same pressed pairs), kept in
+ * w->grown while the next call's are the same. */
+static const fsl_pattern *fsl_grow(eomc_fs_lanes *w, const int *xs, int nx)
+{
+    const eomc_implicit *imp = w->imp;
+    const int n = w->nu;
+    unsigned long long *m = w->bits;
+    int pos = 0;
+    memcpy(m, w->tbits, (size_t)n * sizeof *m);
+    for (int i = 0; i < nx; i++)
+        for (int x = imp->chain_start[xs[i]]; x < imp->chain_start[xs[i] + 1]; x++) {
+            int sp = fs_speed(imp->chain[x]);
+            m[sp] |= w->xbits[xs[i]] & ((1ULL << sp) - 1);
+        }
+    for (int k = n - 1; k >= 0; k--)
+        for (int i = k - 1; i >= 0; i--)
+            if (m[k] >> i & 1) m[i] |= m[k] & ((1ULL << i) - 1);
+    if (w->have_grown && memcmp(m, w->gbits, (size_t)n * sizeof *m) == 0) return &w->grown;
+    for (int k = 0; k < n; k++) {
+        w->grown.start[k] = pos;
+        for (int i = k - 1; i >= 0; i--)
+            if (m[k] >> i & 1) w->grown.anc[pos++] = i;
+    }
+    w->grown.start[n] = pos;
+    w->have_grown = 0;
+    if (fsl_lists(w, &w->grown)) return &w->full;
+    memcpy(w->gbits, m, (size_t)n * sizeof *m);
+    w->have_grown = 1;
+    return &w->grown;
+}
+
 #ifdef EOMC_FS_LANES
 #include <immintrin.h>
 #define FSL_W 4
@@ -1106,13 +1198,25 @@ void eomc_fs_lanes_free(eomc_fs_lanes *w)
     if (w == NULL) return;
     free(w->mem);
     free(w->slot_ij);
+    free(w->pmem);
     free(w);
+}
+
+/* a pattern's arrays at the sizes of every pair's fill's (nanc entries, nupd updates), from *pos */
+static void fsl_carve(fsl_pattern *P, int **pos, int nu, int nanc, int nupd, int nslot)
+{
+    P->start = *pos; *pos += nu + 1;
+    P->anc = *pos; *pos += nanc;
+    P->lo = *pos; *pos += nanc;
+    P->up = *pos; *pos += nanc;
+    P->upd = *pos; *pos += nupd;
+    P->slots = *pos; *pos += nslot;
 }
 
 eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int lanes)
 {
     eomc_fs_lanes *w;
-    int *slot = NULL, *cstart, *cols, nc = imp ? imp->ncontact : 0, ncs = 0, nupd = 0, pos;
+    int *slot = NULL, *cstart, *cols, nc = imp ? imp->ncontact : 0, ncs = 0, nupd = 0, pos, nanc;
     size_t n = (size_t)nu, ints;
     void (*kernel)(eomc_fs_lanes *, const double *, const double *, size_t, eomc_fs_request *const *,
                    double *const *, const double *const *, size_t, size_t) = NULL;
@@ -1200,6 +1304,61 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
         if (w->lo[x] < 0 || w->up[x] < 0) { eomc_fs_lanes_free(w); return NULL; }
     for (int i = 0; i < pos; i++)
         if (w->cslot[i] < 0) { eomc_fs_lanes_free(w); return NULL; }  /* a chain not on one path */
+    nanc = w->start[nu];
+    {   /* the patterns: full (the lists above), base and grown (dyn: M's tree given, nu <= 64) */
+        size_t pints = 3 * ((size_t)nu + 1 + 3 * (size_t)nanc + (size_t)nupd + (size_t)w->nslot) + (size_t)nu + 1 +
+                       (size_t)w->nslot + 2 * (size_t)nc;   /* 3 patterns, mstart, mcols, xc, xon */
+        size_t words = 3 * n + (size_t)nc;
+        int *p;
+        w->dyn = imp->parent != NULL && nu <= 64;
+        if ((w->pmem = malloc(pints * sizeof(int) + words * sizeof(unsigned long long) + (size_t)w->nslot + 8)) ==
+            NULL) {
+            eomc_fs_lanes_free(w);
+            return NULL;
+        }
+        w->tbits = (unsigned long long *)w->pmem;
+        w->gbits = w->tbits + n;
+        w->bits = w->gbits + n;
+        w->xbits = w->bits + n;
+        p = (int *)(w->xbits + nc);
+        fsl_carve(&w->full, &p, nu, nanc, nupd, w->nslot);
+        fsl_carve(&w->base, &p, nu, nanc, nupd, w->nslot);
+        fsl_carve(&w->grown, &p, nu, nanc, nupd, w->nslot);
+        w->mstart = p; p += nu + 1;
+        w->mcols = p; p += w->nslot;
+        w->xc = p; p += nc;
+        w->xon = p; p += nc;
+        w->mark = (unsigned char *)p;
+        memcpy(w->full.start, w->start, (n + 1) * sizeof(int));
+        memcpy(w->full.anc, w->anc, (size_t)nanc * sizeof(int));
+        if (fsl_lists(w, &w->full)) { eomc_fs_lanes_free(w); return NULL; }
+        if (w->dyn) {
+            unsigned char *mark = (unsigned char *)malloc(n * n + 1);
+            if (mark == NULL) { eomc_fs_lanes_free(w); return NULL; }
+            fs_ancestors(nu, imp->parent, NULL, mark, w->base.start, w->base.anc);
+            free(mark);
+            if (w->base.start[nu] > nanc || fsl_lists(w, &w->base)) w->dyn = 0;
+        }
+        if (w->dyn) {
+            for (int k = 0; k < nu; k++) {
+                w->tbits[k] = 0;
+                for (int x = w->base.start[k]; x < w->base.start[k + 1]; x++) w->tbits[k] |= 1ULL << w->base.anc[x];
+            }
+            for (int c = 0; c < nc; c++) {     /* a chain that is not on one path joins two branches */
+                unsigned long long m = 0;
+                int path = 1;
+                for (int x = imp->chain_start[c]; x < imp->chain_start[c + 1]; x++) m |= 1ULL << fs_speed(imp->chain[x]);
+                for (int x = imp->chain_start[c]; x < imp->chain_start[c + 1]; x++) {
+                    int sp = fs_speed(imp->chain[x]);
+                    if (m & ((1ULL << sp) - 1) & ~w->tbits[sp]) path = 0;
+                }
+                w->xbits[c] = m;
+                if (!path) w->xc[w->nxc++] = c;
+            }
+        }
+        fs_columns(nu, w->dyn ? w->base.start : w->full.start, w->dyn ? w->base.anc : w->full.anc, w->mstart,
+                   w->mcols);
+    }
     {
         size_t doubles = ((size_t)w->nslot + 9 * n + (size_t)nq) * (size_t)width;
         if ((w->mem = malloc(doubles * sizeof(double) + 64)) == NULL) { eomc_fs_lanes_free(w); return NULL; }
@@ -1524,7 +1683,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
         if (q->bare == q->A1) q->bare = NULL;    /* written below, by the scalar code */
         if ((s = ops->terms(ops->ctx, t + h, q->x1, q->T1))) return s;
     }
-    if (done) {                         /* the lanes' pattern: every pair's fill (fs_ancestors) */
+    if (done) {                         /* A1 unwritten (bare): the lists of its tree, as a placeholder */
         q->start1 = q->pat.start;
         q->anc1 = q->pat.anc;
     } else if ((s = fs_assemble(ops, L, h, q->x1 + nq, q->T1, q->A1, q->b1, q->GJ, q->cT1, &q->vT1, &q->pat,
@@ -2130,10 +2289,13 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
         q.f1 = pos; pos += n;           /* accept's f1: quaternions rescale it; not read back */
         memset(q.f1, 0, (size_t)n * sizeof(double));
         {
-            /* per-step fill (fs_pattern) with M's tree given, at most 64 speeds, and not in the lanes
-             * rollout (whose A1 comes with every pair's fill); else every pair's fill at every step */
+            /* per-step fill (fs_pattern) with M's tree given and at most 64 speeds, else every pair's
+             * fill at every step.  The lanes rollout's rows too: the lanes never write A or A1 (bare),
+             * so their pattern (eomc_fs_lanes: per call, the union of the group's) is not this one's;
+             * the scalar assemblies of its rows (a split step's tries: 7469 a 64-row humanoid
+             * rollout, fs_tree_lu half of them, perf) take the per-step fill as the scalar rollout's do */
             const eomc_implicit *imp = ops->imp;
-            int nc = imp->ncontact, dyn = imp->parent != NULL && nu <= 64 && ops->terms_lu == NULL;
+            int nc = imp->ncontact, dyn = imp->parent != NULL && nu <= 64;
             unsigned long long *tree = (unsigned long long *)pos, *cross = tree + nu;
             int *lists;
             q.pat.bits = cross + nc;

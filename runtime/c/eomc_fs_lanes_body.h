@@ -133,18 +133,19 @@ __attribute__((target(FSL_TARGET))) static void FSL_SECANT(const FSL_V *K, const
     for (int a = 0; a < 9; a++) Cs[a] = FSL_SEL(keep, C[a], Cs[a]);
 }
 
-/* fs_tree_solve in every lane: B := A^-1 B with the kernel's factored A (its slots) */
-__attribute__((target(FSL_TARGET))) static void FSL_SOLVE(const eomc_fs_lanes *w, const FSL_V *A, FSL_V *B)
+/* fs_tree_solve in every lane: B := A^-1 B with the kernel's factored A (its slots, pattern P) */
+__attribute__((target(FSL_TARGET))) static void FSL_SOLVE(const eomc_fs_lanes *w, const fsl_pattern *P,
+                                                         const FSL_V *A, FSL_V *B)
 {
-    const int n = w->nu, *start = w->start, *anc = w->anc;
+    const int n = w->nu, *start = P->start, *anc = P->anc, *lo = P->lo, *up = P->up;
     for (int k = n - 1; k >= 0; k--) {
         const FSL_V bk = B[k];
-        for (int x = start[k]; x < start[k + 1]; x++) B[anc[x]] -= A[w->lo[x]] * bk;
+        for (int x = start[k]; x < start[k + 1]; x++) B[anc[x]] -= A[lo[x]] * bk;
     }
     for (int k = 0; k < n; k++) B[k] /= A[w->diag[k]];
     for (int k = 0; k < n; k++) {
         FSL_V s = B[k];
-        for (int x = start[k]; x < start[k + 1]; x++) s -= A[w->up[x]] * B[anc[x]];
+        for (int x = start[k]; x < start[k + 1]; x++) s -= A[up[x]] * B[anc[x]];
         B[k] = s;
     }
 }
@@ -155,8 +156,8 @@ __attribute__((target(FSL_TARGET))) static void FSL_SOLVE(const eomc_fs_lanes *w
  * the order of the scalar lines, so each lane's bits.  Why here: per row and scalar, the two tree
  * solves and the products with M and N (1260 terms on G1) were a quarter of the lanes rollout's C
  * time (perf). */
-__attribute__((target(FSL_TARGET))) static void FSL_STEP(eomc_fs_lanes *w, const double *OUT, size_t stride,
-                                                        FSL_V h, const FSL_V *A, const FSL_V *b,
+__attribute__((target(FSL_TARGET))) static void FSL_STEP(eomc_fs_lanes *w, const fsl_pattern *P, const double *OUT,
+                                                        size_t stride, FSL_V h, const FSL_V *A, const FSL_V *b,
                                                         const double *const *du, FSL_V *ratio)
 {
     const fs_layout *L = &w->L;
@@ -166,7 +167,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_STEP(eomc_fs_lanes *w, const
     int any = 0;
 #define FSL_T(e) (*(const FSL_V *)(OUT + (size_t)(e) * stride))
     for (int l = 0; l < FSL_W; l++) any |= du[l] != NULL;
-    if (any) {                                       /* r = M1 du - h f1 over M's slots, A^-1 r */
+    if (any) {                                       /* r = M1 du - h f1 over M's columns, A^-1 r */
         FSL_V rn = zero, dn = zero;
         for (int k = 0; k < nu; k++) {
             FSL_V d;
@@ -175,13 +176,13 @@ __attribute__((target(FSL_TARGET))) static void FSL_STEP(eomc_fs_lanes *w, const
         }
         for (int i = 0; i < nu; i++) {
             FSL_V r = -h * FSL_T(L->f + (size_t)i);
-            for (int x = w->cstart[i]; x < w->cstart[i + 1]; x++) {
-                const int ij = w->slot_ij[x];
-                r += FSL_T(L->M + (size_t)ij) * D[ij - i * nu];
+            for (int x = w->mstart[i]; x < w->mstart[i + 1]; x++) {
+                const int k = w->mcols[x];
+                r += FSL_T(L->M + (size_t)i * nu + (size_t)k) * D[k];
             }
             R[i] = r;
         }
-        FSL_SOLVE(w, A, R);
+        FSL_SOLVE(w, P, A, R);
         for (int i = 0; i < nu; i++) {
             rn += R[i] * R[i];
             dn += D[i] * D[i];
@@ -189,7 +190,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_STEP(eomc_fs_lanes *w, const
         *ratio = FSL_SQRT(rn) / (FSL_SQRT(dn) + h * RESID_ACCEL);
     }
     for (int i = 0; i < nu; i++) D[i] = h * b[i];
-    FSL_SOLVE(w, A, D);
+    FSL_SOLVE(w, P, A, D);
     {   /* v = qd + N du row by row, four rows at a time (each row's sum in the order of k) */
         int i = 0;
         for (; i + 4 <= nq; i += 4) {
@@ -325,7 +326,8 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
     FSL_V *A = (FSL_V *)w->A, *b = (FSL_V *)w->b, *J = (FSL_V *)w->J, *GJ = (FSL_V *)w->GJ;
     FSL_V h, hh, scale = zero, lim;
     FSL_VI fail = {0};
-    const int *up = w->upd;
+    const fsl_pattern *P = w->dyn ? &w->base : &w->full;
+    const int *up;
     const double *du[FSL_W];
     h = zero;
     for (int l = 0; l < FSL_W; l++) {
@@ -334,15 +336,25 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
     }
     hh = h * h;
 #define FSL_T(e) (*(const FSL_V *)(OUT + (size_t)(e) * stride))    /* term e in the group's lanes */
-    for (int s = 0; s < w->nslot; s++) A[s] = FSL_T(L->M + (size_t)w->slot_ij[s]);
+#define FSL_E(x) (rows && (x) >= rlo && (x) < rhi ? FSL_GATHER(rows, (x)) : FSL_T(x))   /* term x: the rows' or OUT's */
+    if (w->nxc > 0) {                                /* a pair across two branches in touch: its fill */
+        int nx = 0;
+        for (int i = 0; i < w->nxc; i++) {
+            const FSL_VI on = FSL_E(L->contact + 25 * (size_t)w->xc[i]) > zero;
+            if (FSL_ANY(&on)) w->xon[nx++] = w->xc[i];
+        }
+        if (nx > 0) P = fsl_grow(w, w->xon, nx);
+    }
+    up = P->upd;
+    for (int x = 0; x < P->nslots; x++) A[P->slots[x]] = FSL_T(L->M + (size_t)w->slot_ij[P->slots[x]]);
     for (int i = 0; i < nu; i++) b[i] = FSL_T(L->f + (size_t)i);
     for (int r = 0; r < imp->nfree; r++) {           /* fs_transport, on row s's slots */
         const int s = imp->free[r];
         const FSL_V g = 0.5 * h;
         FSL_V wv[3];
         for (int a = 0; a < 3; a++) memcpy(&wv[a], Uv + (size_t)(s + 3 + a) * stride, sizeof wv[a]);
-        for (int x = w->cstart[s]; x < w->cstart[s + 1]; x++) {
-            const int k = w->slot_ij[x] - s * nu;
+        for (int x = w->mstart[s]; x < w->mstart[s + 1]; x++) {
+            const int k = w->mcols[x];
             const FSL_V p0 = FSL_T(L->M + (size_t)s * nu + k), p1 = FSL_T(L->M + (size_t)(s + 1) * nu + k),
                         p2 = FSL_T(L->M + (size_t)(s + 2) * nu + k);
             const FSL_VI on = (p0 != zero) | (p1 != zero) | (p2 != zero);
@@ -373,11 +385,9 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
         FSL_V e[25], G[9], Cs[9], Kv[3];
         const FSL_V *p = e + 1, *vp = e + 4, *K = e + 7, *C = e + 16;
         FSL_VI on, any = {0};
-#define FSL_E(x) (rows && (x) >= rlo && (x) < rhi ? FSL_GATHER(rows, (x)) : FSL_T(x))   /* term x: the rows' or OUT's */
         on = FSL_E(ce) > zero;
         if (!FSL_ANY(&on)) continue;                 /* not touching: no force, no slope */
         for (int a = 0; a < 25; a++) e[a] = FSL_E(ce + (size_t)a);
-#undef FSL_E
         FSL_SECANT(K, C, Cs);                         /* the lanes off: read by no store */
         for (int a = 0; a < 9; a++) {
             G[a] = h * Cs[a] + hh * K[a];
@@ -429,8 +439,9 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
             }
         }
     }
+#undef FSL_E
 #undef FSL_T
-    /* fs_tree_lu; a lane that fails its test is marked (the others go on) */
+    /* fs_tree_lu over P; a lane that fails its test is marked (the others go on) */
     for (int k = 0; k < nu; k++) {
         FSL_V a = FSL_FABS(A[w->diag[k]]);
         scale = FSL_SEL(a > scale, a, scale);
@@ -438,7 +449,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
     fail |= ~FSL_FINITE(scale);
     lim = 64 * DBL_EPSILON * scale;
     for (int k = nu - 1; k >= 0; k--) {
-        int na = w->start[k + 1] - w->start[k];
+        int na = P->start[k + 1] - P->start[k];
         FSL_V dk = A[w->diag[k]], inv;
         const int *rk = up;                          /* the slots (k, a[y]) */
         fail |= ~(FSL_FABS(dk) > lim) | ~FSL_FINITE(dk);
@@ -465,7 +476,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
            another h assembles its own: measured on G1, writing them out was a tenth of this kernel) */
         const FSL_V *D = (const FSL_V *)w->D, *V = (const FSL_V *)w->V;
         FSL_V ratio = zero;
-        FSL_STEP(w, OUT, stride, h, A, b, du, &ratio);
+        FSL_STEP(w, P, OUT, stride, h, A, b, du, &ratio);
         for (int l = 0; l < FSL_W; l++) {
             eomc_fs_request *q = req[l];
             int ok = !fail[l] && !((w->test_fail >> l) & 1u);
