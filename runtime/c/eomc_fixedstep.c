@@ -1017,12 +1017,12 @@ struct eomc_fs_lanes {
      * when M has no tree or more than 64 speeds (dyn 0).  mstart, mcols: M's row i's columns that
      * can be nonzero (base's: fs_columns), read by the residual's product and the transport. */
     fsl_pattern full, base, grown;
-    int dyn, have_grown, nxc;
-    int *xc;                          /* the nxc contacts across two branches */
+    int dyn, have_grown;
     int *mstart, *mcols;
     unsigned long long *tbits, *xbits, *gbits, *bits;   /* nu: the tree's; nc: each contact's speeds;
                                                            nu: grown's and scratch */
-    int *xon;                         /* nc: the kernel's scratch (the ones in touch) */
+    int *xon, *touch;                 /* nc each: the kernel's scratch (the ones in touch) */
+    unsigned char *cross;             /* nc: 1 for the contacts across two branches (dyn) */
     unsigned char *mark;              /* nslot bytes (fsl_lists) */
     void *pmem;
     double *A, *b, *J, *GJ;    /* 64-byte aligned: nslot, nu, 3 nu, 3 nu vectors of lanes */
@@ -1307,12 +1307,12 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
     nanc = w->start[nu];
     {   /* the patterns: full (the lists above), base and grown (dyn: M's tree given, nu <= 64) */
         size_t pints = 3 * ((size_t)nu + 1 + 3 * (size_t)nanc + (size_t)nupd + (size_t)w->nslot) + (size_t)nu + 1 +
-                       (size_t)w->nslot + 2 * (size_t)nc;   /* 3 patterns, mstart, mcols, xc, xon */
-        size_t words = 3 * n + (size_t)nc;
+                       (size_t)w->nslot + 2 * (size_t)nc;   /* 3 patterns, mstart, mcols, xon, touch */
+        size_t words = 3 * n + (size_t)nc;   /* tbits, gbits, bits, xbits */
+        size_t bytes = pints * sizeof(int) + words * sizeof(unsigned long long) + (size_t)w->nslot + (size_t)nc;
         int *p;
         w->dyn = imp->parent != NULL && nu <= 64;
-        if ((w->pmem = malloc(pints * sizeof(int) + words * sizeof(unsigned long long) + (size_t)w->nslot + 8)) ==
-            NULL) {
+        if ((w->pmem = calloc(1, bytes)) == NULL) {
             eomc_fs_lanes_free(w);
             return NULL;
         }
@@ -1326,9 +1326,10 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
         fsl_carve(&w->grown, &p, nu, nanc, nupd, w->nslot);
         w->mstart = p; p += nu + 1;
         w->mcols = p; p += w->nslot;
-        w->xc = p; p += nc;
         w->xon = p; p += nc;
+        w->touch = p; p += nc;
         w->mark = (unsigned char *)p;
+        w->cross = w->mark + w->nslot;
         memcpy(w->full.start, w->start, (n + 1) * sizeof(int));
         memcpy(w->full.anc, w->anc, (size_t)nanc * sizeof(int));
         if (fsl_lists(w, &w->full)) { eomc_fs_lanes_free(w); return NULL; }
@@ -1353,7 +1354,7 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
                     if (m & ((1ULL << sp) - 1) & ~w->tbits[sp]) path = 0;
                 }
                 w->xbits[c] = m;
-                if (!path) w->xc[w->nxc++] = c;
+                w->cross[c] = !path;
             }
         }
         fs_columns(nu, w->dyn ? w->base.start : w->full.start, w->dyn ? w->base.anc : w->full.anc, w->mstart,

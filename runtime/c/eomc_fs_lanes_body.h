@@ -327,6 +327,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
     FSL_V h, hh, scale = zero, lim;
     FSL_VI fail = {0};
     const fsl_pattern *P = w->dyn ? &w->base : &w->full;
+    int nt = 0;
     const int *up;
     const double *du[FSL_W];
     h = zero;
@@ -337,11 +338,14 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
     hh = h * h;
 #define FSL_T(e) (*(const FSL_V *)(OUT + (size_t)(e) * stride))    /* term e in the group's lanes */
 #define FSL_E(x) (rows && (x) >= rlo && (x) < rhi ? FSL_GATHER(rows, (x)) : FSL_T(x))   /* term x: the rows' or OUT's */
-    if (w->nxc > 0) {                                /* a pair across two branches in touch: its fill */
+    {   /* the contacts in touch in a lane (depth > 0), and of them the pairs across two branches:
+           their fill (one scan of the depths: the contacts' loop below takes the list) */
         int nx = 0;
-        for (int i = 0; i < w->nxc; i++) {
-            const FSL_VI on = FSL_E(L->contact + 25 * (size_t)w->xc[i]) > zero;
-            if (FSL_ANY(&on)) w->xon[nx++] = w->xc[i];
+        for (int c = 0; c < imp->ncontact; c++) {
+            const FSL_VI on = FSL_E(L->contact + 25 * (size_t)c) > zero;
+            if (!FSL_ANY(&on)) continue;
+            w->touch[nt++] = c;
+            if (w->cross[c]) w->xon[nx++] = c;
         }
         if (nx > 0) P = fsl_grow(w, w->xon, nx);
     }
@@ -378,7 +382,8 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
             b[s] = FSL_SEL(m, b[s] - h * k * u, b[s]);
         }
     }
-    for (int c = 0; c < imp->ncontact; c++) {
+    for (int t = 0; t < nt; t++) {
+        const int c = w->touch[t];
         const size_t ce = L->contact + 25 * (size_t)c;
         const int *cols = imp->chain + imp->chain_start[c], *cs = w->cslot + w->cslot_start[c];
         int m = imp->chain_start[c + 1] - imp->chain_start[c];
@@ -450,27 +455,30 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
     lim = 64 * DBL_EPSILON * scale;
     for (int k = nu - 1; k >= 0; k--) {
         int na = P->start[k + 1] - P->start[k];
-        FSL_V dk = A[w->diag[k]], inv;
+        FSL_V dk = A[w->diag[k]], inv, *row = (FSL_V *)w->R;
         const int *rk = up;                          /* the slots (k, a[y]) */
         fail |= ~(FSL_FABS(dk) > lim) | ~FSL_FINITE(dk);
         inv = one / dk;
         up += na;
+        /* row k, unchanged by its own updates (they write rows a[x] < k), copied out once: the
+         * updates then read it in order instead of through its slots (FSL_STEP overwrites R) */
+        for (int y = 0; y < na; y++) row[y] = A[rk[y]];
         for (int x = 0; x < na; x++) {
             const int *ri = up + 1;                  /* (a[x], k), then (a[x], a[y]) */
             FSL_V u = A[up[0]] * inv;
             FSL_VI nz = u != zero;
             if (FSL_ALL(&nz)) {                      /* every lane updates (the common case) */
-                for (int y = 0; y < na; y++) A[ri[y]] -= u * A[rk[y]];
+                for (int y = 0; y < na; y++) A[ri[y]] -= u * row[y];
             } else if (FSL_ANY(&nz)) {
                 for (int y = 0; y < na; y++) {
-                    FSL_V a = A[ri[y]], d = a - u * A[rk[y]];
+                    FSL_V a = A[ri[y]], d = a - u * row[y];
                     A[ri[y]] = FSL_SEL(nz, d, a);
                 }
             }
             A[up[0]] = u;
             up += 1 + na;
         }
-        for (int y = 0; y < na; y++) A[rk[y]] *= inv;
+        for (int y = 0; y < na; y++) A[rk[y]] = row[y] * inv;
     }
     {   /* the lanes' answers; A and b stay here (the row's next try at h takes du1 and v1, a try at
            another h assembles its own: measured on G1, writing them out was a tenth of this kernel) */
