@@ -8,7 +8,7 @@ residual test split those steps down to h/64 (54 of 334 steps, 499 of 780 calls)
 blew up (benchmarks/results/fixedstep.md).  Here on a small scene: a ball thrown at a free body's
 trunk and arm (pairs across two trees: the fill), against the same run with the pairs' slopes left
 out of the matrix (the old fast path: ncontact cut to the ground's contacts), a tight Radau run, and
-the lanes rollout (every pair's fill, static) bit for bit."""
+the lanes rollout (per call, the fill of the pairs in touch in any of its lanes) bit for bit."""
 import warnings
 
 import numpy as np
@@ -87,12 +87,16 @@ def test_a_pressed_pair_step_is_taken_whole(limbs, monkeypatch):
     assert err_new < 0.5 * err_old and err_new < 0.005, (err_new, err_old)
 
 
-def test_lanes_rollout_is_the_scalar_rollout_bit_for_bit(limbs, monkeypatch):
-    """The lanes assemble with every pair's fill, the scalar rows with the pressed pairs' only: the
-    same bits (the bigger pattern adds exact zeros).  The lanes' calls write the pairs' slope block
+@pytest.mark.parametrize("width", ["8", "4"])
+def test_lanes_rollout_is_the_scalar_rollout_bit_for_bit(limbs, monkeypatch, width):
+    """The lanes assemble with the fill of the pairs in touch in any lane of the group (the kernel's
+    pattern per call: M's tree's, grown by the trunk-ball pair's fill while it presses in one of
+    them), the scalar rows with the pressed pairs' only: the same bits (the bigger pattern adds exact
+    zeros), with either kernel width.  The lanes' calls write the pairs' slope block
     straight into each row's buffer (NAME_implicit_batch_rows; the assembly in lanes reads the pair
     points from the rows): the same rows as with the block through the batch's columns."""
     import eomc.runtime.rollout as rollout_module
+    monkeypatch.setenv("EOMC_FS_LANES_WIDTH", width)       # read by each rollout thread
     m = limbs
     # the lanes' kernel is vectorized (the pairs' loop lane by lane, its slopes into out[]), not the
     # scalar loop it falls back to on a call it does not know
