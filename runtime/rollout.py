@@ -424,8 +424,10 @@ def _stats_columns(ffi, stats, n, fields=None):
                                                 "formats": [kinds[f.type.cname] for _, f in each],
                                                 "offsets": [f.offset for _, f in each],
                                                 "itemsize": ffi.sizeof("eomc_stats")})
-    table = np.frombuffer(ffi.buffer(stats, n * dtype.itemsize), dtype=dtype)
-    return {name: table[name].copy() for name in (dtype.names if fields is None else fields)}
+    # one copy of the whole table (its fields then views of it): a copy per field was ~1 us each
+    # and a tenth of rollout's numpy work after the C call
+    table = np.frombuffer(ffi.buffer(stats, n * dtype.itemsize), dtype=dtype).copy()
+    return {name: table[name] for name in (dtype.names if fields is None else fields)}
 
 
 def _energy_watch(model):
@@ -471,8 +473,12 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     # output but cannot evaluate it: not judged, as simulate, whose run then has no outputs
     if not sw or "energy" not in model.output_names or not rows.size or model.c_model.outputs == model.ffi.NULL:
         return {}
+    energy, depth = _verdict_columns(model, sw)
     t = np.array([0.0, float(t_eval[-1])])
-    X = np.stack([X0[rows], X_last[rows]], axis=1)    # (rows, 2, nx)
+    X = np.empty((rows.size, 2, model.nx))      # (rows, 2, nx): each row's start and end
+    whole = rows.size == X0.shape[0]
+    X[:, 0] = X0 if whole else X0[rows]
+    X[:, 1] = X_last if whole else X_last[rows]
 
     def row_args(i):
         b = dict(a, x0=X0[i], p=P[i if p_stride else 0])
@@ -482,7 +488,9 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     out = None
     if not p_stride and controls[0] <= 1:      # one call: the rows' points one after another
         try:
-            out = _along(model, row_args(rows[0]), 0, np.tile(t, rows.size),
+            tt = np.empty((rows.size, 2))
+            tt[:, 0], tt[:, 1] = t
+            out = _along(model, row_args(rows[0]), 0, tt.reshape(-1),
                          X.reshape(-1, model.nx)).reshape(rows.size, t.size, -1)
         except SimulationError:     # an output not finite somewhere: row by row below
             out = None
@@ -493,15 +501,16 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
                 out[k] = _along(model, row_args(i), 0, t, X[k])
             except SimulationError:     # not finite along this row: no energy to judge (as _energy_gain)
                 pass
-    E = out[:, :, model.output_names.index("energy")]
+    E = out[:, :, energy]
     seen = E
     if watched is not None:     # [start, lowest, highest, end]: the whole run's gain and scale
         seen = np.concatenate([E[:, :1], watched.column("lo")[rows, None], watched.column("hi")[rows, None],
                                E[:, 1:]], axis=1)
     rtol = energy_tolerance(a["rtol"], a["atol"])
     with np.errstate(invalid="ignore"):
-        scale = np.maximum(np.maximum(np.abs(seen[:, 0]), np.max(np.abs(seen - seen[:, :1]), axis=1)), 1e-300)
-        gain, tol = np.max(seen, axis=1) - seen[:, 0], rtol * scale
+        # (ndarray methods rather than np.max: the same reductions without numpy's Python dispatch)
+        scale = np.maximum(np.maximum(np.abs(seen[:, 0]), np.abs(seen - seen[:, :1]).max(axis=1)), 1e-300)
+        gain, tol = seen.max(axis=1) - seen[:, 0], rtol * scale
         rose = gain > tol
         risen = np.zeros(rows.size, dtype=bool)
         if watched is not None and total_known(model, sw):
@@ -510,8 +519,6 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
             tscale = np.maximum.reduce([np.abs(T0), watched.column("total_hi")[rows] - T0,
                                         T0 - watched.column("total_lo")[rows], np.full(T0.shape, 1e-300)])
             risen = rise > rtol * tscale
-    depth = [model.output_names.index(f"depth_{c.name}") for c in sw.contacts
-             if f"depth_{c.name}" in model.output_names]
     messages, notes = {}, []
     # the verdict is silent on a gain within what the start's limit springs held (gymnasium's
     # ant: every row, its ankles start outside their range): its allowance alone decides that,
@@ -556,6 +563,20 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
                                      f"{', '.join(map(str, seen_rows[:8]))}{', ...' if len(seen_rows) > 8 else ''}); "
                                      f"row {i}: {w}"), stacklevel=3)
     return messages
+
+
+def _verdict_columns(model, sw):
+    """The energy output's column and the contacts' depth outputs' columns (an int array) for
+    _energy_verdicts, kept on the model's Switches (a model's names are fixed).  Why: the depth
+    names' searches in output_names were ~40 us of every fast-path rollout's verdict."""
+    got = sw.__dict__.get("_verdict_columns")
+    if got is None:
+        names = list(model.output_names)
+        got = (names.index("energy"),
+               np.array([names.index(f"depth_{c.name}") for c in sw.contacts if f"depth_{c.name}" in names],
+                        dtype=np.intp))
+        object.__setattr__(sw, "_verdict_columns", got)     # one tuple: read whole by any thread
+    return got
 
 
 def _gains(model, K, x_ref, n):
