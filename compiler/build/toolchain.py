@@ -42,7 +42,17 @@ MACHINE_FLAGS = ("-mavx2", "-ffp-contract=off")
 # vectors stay 256-bit (-mprefer-vector-width=128 also cured it, but sensitivity runs, whose
 # jvp carries four directions in one ymm, were 7-8 % slower; benchmarks/results/upper_state.md).
 # tests/compiler/build/test_upper_state.py reads the state after every generated function.
-GCC_MACHINE_FLAGS = ("-fno-ipa-ra",)
+# -fno-math-errno (gcc only here: measured with gcc 12): nothing reads errno (the generated C
+# checks its results' finiteness), so sqrt, sin, cos are the same functions with the same bits and
+# only their errno side effect goes: sqrt is the bare instruction (the ant's library had 502 libm
+# calls for negative arguments, 49 kB) and gcc may share repeated calls.  -mmemset-strategy comes
+# with it: alone, -fno-math-errno made gcc expand the ground slopes' zeroing of an out-of-touch
+# point (18 doubles) as rep stosq, whose start-up cost made Go2's NAME_implicit 1.7x slower;
+# vector stores up to 512 bytes, memset above, avoid rep stos everywhere.  The pair, measured
+# (benchmarks/results/machine_flags.md, 2026-12-02): every function of the gym ant, humanoid,
+# hopper, walker2d, Go2 and G1 bit-equal; Go2's NAME_implicit 13-17 % and G1's ~8 % faster, the
+# rhs and jac_x equal; T2 (the gym four) equal within the copies' spread (ant -1.5 to -3.6 %).
+GCC_MACHINE_FLAGS = ("-fno-ipa-ra", "-fno-math-errno", "-mmemset-strategy=vector_loop:512:noalign,libcall:-1:noalign")
 _MACHINE = {}  # (path, version) -> the machine flags this compiler accepts
 _CANDIDATES = ("cc", "gcc", "clang")
 _VERSIONS = {}  # (path, mtime) -> version text; a compiler is probed once per process

@@ -36,7 +36,8 @@ def configure(parser):
     parser.add_argument("--backend", choices=("cffi", "cython"), default="cffi",
                         help="Python binding: cffi (ABI mode, no extension to compile; default) or cython")
     parser.add_argument("--cflags", help="C compiler flags replacing the default '-O2 -fPIC -std=c99' "
-                                         "(plus '-mavx2 -ffp-contract=off', and '-fno-ipa-ra' with gcc, on an x86-64 CPU with AVX2; "
+                                         "(plus '-mavx2 -ffp-contract=off', and '-fno-ipa-ra -fno-math-errno -mmemset-strategy=...' with gcc, "
+                                         "on an x86-64 CPU with AVX2; "
                                          "write --cflags='-O3 -march=native'); after -ffast-math, -Ofast "
                                          "or -ffinite-math-only eomc adds -fno-finite-math-only, so NaN "
                                          "and inf are still reported as errors")

@@ -61,6 +61,41 @@ def test_machine_build_gives_the_portable_bits(tmp_path):
     assert not np.array_equal(np.array(out["own"]), np.array(out["fused"]))   # the check sees one rounding
 
 
+@pytest.mark.skipif(not AVX2, reason="the machine flags are added on x86-64 CPUs with AVX2 only")
+def test_machine_build_of_a_contact_model_gives_the_portable_bits(tmp_path):
+    """The ground law's sqrt (depth^1.5, the slip's norm) and NAME_implicit's contact slopes, in
+    and out of touch: gcc's -fno-math-errno drops only errno (sqrt is the bare instruction),
+    -mmemset-strategy only changes how zeros are stored, so the bits are the portable build's."""
+    gymnasium = pytest.importorskip("gymnasium")
+    from pathlib import Path
+    from eomc.compiler.driver import generate
+    from eomc.compiler.mjcf.model import MjcfModel
+    xml = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
+    _, gen = generate(MjcfModel(xml), "hop_bits", functions=["rhs", "jac_x", "outputs", "implicit"], cache_dir=tmp_path,
+                      progress=False)
+    own = load(build(gen, cache_dir=tmp_path).directory)
+    portable = load(build(gen, cache_dir=tmp_path, portable=True).directory)
+    if not find_compiler().is_clang:
+        assert "-fno-math-errno" in own.metadata["build"]["cflags"]
+    rng = np.random.default_rng(29)
+    X = rng.uniform(-1.0, 1.0, (80, own.nx)) * rng.choice([0.1, 0.5, 1.0, 3.0], (80, own.nx))
+    depths = np.array([[v for k, v in own.outputs(0.0, x).items() if k.startswith("depth_")] for x in X])
+    assert (depths > 0).any() and (depths <= 0).any()     # points in touch and out of it
+
+    def run(m, x):
+        out = np.full(1 << 14, 7.25)      # past the end of NAME_implicit's output: untouched on both
+        work = np.zeros(1 << 16)
+        rc = m.model_lib.hop_bits_implicit(0.0, m.ffi.from_buffer("double[]", x),
+                                           m.ffi.from_buffer("double[]", np.asarray(m.param_defaults, float)),
+                                           m.ffi.from_buffer("double[]", np.zeros(max(m.ninput, 1))),
+                                           m.ffi.from_buffer("double[]", out), m.ffi.from_buffer("double[]", work))
+        return np.concatenate([[rc], m.rhs(0.0, x), m.jac_x(0.0, x).ravel(), out])
+
+    a = np.array([run(own, x) for x in X])
+    b = np.array([run(portable, x) for x in X])
+    assert np.array_equal(a.view(np.uint64), b.view(np.uint64))
+
+
 @pytest.mark.skipif(not X86, reason="-mavx2 is an x86 flag")
 def test_loader_refuses_a_library_this_cpu_cannot_run(tmp_path, monkeypatch):
     built = build(osc_model.oscillator(), cache_dir=tmp_path, cflags="-O2 -std=c99 -mavx2")
