@@ -186,7 +186,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     naming the first failed row; with raise_on_failure=False, result.status says which
     rows failed and their final rows hold the last good state.
 
-    lanes=True (rk4, a model built with ``rhs_batch``, no constraints or quaternions): each C
+    lanes=True (rk4, a model built with ``rhs_batch``, no constraints): each C
     thread takes blocks of 64 rows and integrates them together, every RK4 stage one
     NAME_rhs_batch_p call over the block (several rows per instruction; one parameter row per
     trajectory or one for all), with the scalar loop's arithmetic in the same order
@@ -672,8 +672,6 @@ def _lanes_allowed(model, method):
         why.append("a model built without rhs_batch (functions=(..., 'rhs_batch'), --outputs ...,rhs_batch)")
     if model.nhol or model.nvel:
         why.append("constraints (their projection runs in the scalar loop)")
-    if model.quaternions:
-        why.append("quaternion coordinates (normalised in the scalar loop)")
     if why:
         raise ValueError(f"{model.name}: rollout(lanes=True) does not take " + "; ".join(why)
                          + "; use lanes=False")
@@ -753,8 +751,9 @@ def _own_function(model, suffix, params):
 def _rollout_lanes(model, X0, P, p_stride, controls, t1, h, steps_too, nthreads, rows=None):
     """RK4 over the rows in SIMD lanes, in C threads (eomc_rollout_lanes): each thread's block of
     rows stored as columns, every stage one NAME_rhs_batch_p call, run_rk4's step grid and
-    arithmetic; one parameter row per row (P, p_stride) or one for all.  ``rows``: a list that gets
-    the four arrays before the C call (the caller's partial result on Ctrl-C or SIGTERM)."""
+    arithmetic; one parameter row per row (P, p_stride) or one for all; the model's unit
+    quaternions normalised in each lane after every step, as the scalar RK4 does.  ``rows``: a list
+    that gets the four arrays before the C call (the caller's partial result on Ctrl-C or SIGTERM)."""
     ffi, lib = _rollout_ffi(model.ffi)
     n, nx = X0.shape
     nsteps = max(int(np.ceil((t1 - 0.0) / h * (1 - 1e-12))), 1)
@@ -766,6 +765,7 @@ def _rollout_lanes(model, X0, P, p_stride, controls, t1, h, steps_too, nthreads,
     if rows is not None:
         rows.extend((X_out, X_last, status, nstep))
     integrator_library(model.ffi)._arm()      # Ctrl-C, SIGTERM stop the blocks at their next step
+    quat = ffi.new("int[]", [int(i) for i in model.quaternions]) if model.quaternions else ffi.NULL
     if n:
         n_rgrid, r_tgrid, R, r_stride = controls
         lib.eomc_rollout_lanes(_batch_p(model, ffi), nx, model.nparam, model.ninput, max(model.work_size, 1), 0.0,
@@ -774,7 +774,7 @@ def _rollout_lanes(model, X0, P, p_stride, controls, t1, h, steps_too, nthreads,
                                buf(R) if R is not None else ffi.NULL, r_stride,
                                buf(X_out) if steps_too else ffi.NULL, buf(X_last),
                                ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), LANES_BLOCK,
-                               nthreads)
+                               nthreads, len(model.quaternions or ()), quat)
     return X_out, X_last, status, nstep
 
 

@@ -747,6 +747,8 @@ typedef struct lanes_job {
     double *X_out, *X_last;
     int *status;
     long *steps;
+    int nquat;           /* unit quaternions in x: their w rows (eomc_options.nquat, .quat) */
+    const int *quat;
     pthread_mutex_t lock;
     int next;            /* first row of the next block, under lock */
     long sigint0;        /* eomc_interrupt_count() at the start: once it changes, no block is handed out */
@@ -763,6 +765,33 @@ static int take_block(lanes_job *job, int *m)
     }
     pthread_mutex_unlock(&job->lock);
     return i;
+}
+
+/* Each live lane's quaternions scaled to length 1, and f's (may be NULL) quaternion rows by the
+ * same factor: eomc_integrators.c's unit_quats on every lane, in its order of arithmetic (a zero
+ * or non-finite quaternion is left for the rhs to report), so a lane keeps the scalar row's bits. */
+static void lane_quats(const lanes_job *job, int m, const char *dead, double *x, double *f)
+{
+    const size_t cols = (size_t)m;
+    int k, q, j;
+    for (k = 0; k < m; ++k) {
+        if (dead[k])
+            continue;
+        for (q = 0; q < job->nquat; ++q) {
+            double *v = x + (size_t)job->quat[q] * cols + (size_t)k;
+            double *g = f ? f + (size_t)job->quat[q] * cols + (size_t)k : NULL;
+            double n2 = v[0] * v[0] + v[cols] * v[cols] + v[2 * cols] * v[2 * cols] + v[3 * cols] * v[3 * cols];
+            double s;
+            if (!(n2 > 0.0) || !isfinite(n2))
+                continue;
+            s = 1.0 / sqrt(n2);
+            for (j = 0; j < 4; ++j) {
+                v[(size_t)j * cols] *= s;
+                if (g)
+                    g[(size_t)j * cols] *= s;
+            }
+        }
+    }
 }
 
 /* A stage's statuses: the first failure of a live row ends it (its status kept). */
@@ -834,10 +863,13 @@ static void lanes_block(lanes_job *job, int first, int m, double *buf, int *ibuf
         dead[k] = 0;
         status[k] = EOMC_OK;
         if (done) done[k] = 0;
-        if (job->X_out)
-            for (i = 0; i < nx; ++i)
-                job->X_out[((size_t)(first + k) * (size_t)(job->nsteps + 1)) * (size_t)nx + (size_t)i] = x0[i];
     }
+    if (job->nquat)
+        lane_quats(job, m, dead, x, NULL);    /* x0's quaternions made unit, as eomc_integrate's start */
+    for (k = 0; k < m && job->X_out; ++k)
+        for (i = 0; i < nx; ++i)
+            job->X_out[((size_t)(first + k) * (size_t)(job->nsteps + 1)) * (size_t)nx + (size_t)i]
+                = x[(size_t)i * cols + (size_t)k];
     memcpy(good, x, nxm * sizeof(double));
     job->f(m, job->t0, x, Pb, lane_inputs(job, first, m, job->t0, Rb), k1, st, work);
     if (mark(m, st, dead, status)) {
@@ -882,6 +914,8 @@ static void lanes_block(lanes_job *job, int first, int m, double *buf, int *ibuf
             }
             job->f(m, tn, x1, Pb, lane_inputs(job, first, m, tn, Rb), k2, st, work);   /* k2 := f(tn, x1) */
             live = mark(m, st, dead, status);
+            if (job->nquat)
+                lane_quats(job, m, dead, x1, k2);     /* after f, as run_rk4: k2 scaled with x1 */
             for (k = 0; k < m; ++k) {
                 double *row = job->X_out ? job->X_out + ((size_t)(first + k) * (size_t)(job->nsteps + 1)
                                                          + (size_t)(s + 1)) * (size_t)nx : NULL;
@@ -939,14 +973,19 @@ static void *lanes_worker(void *arg)
 int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, int ninput, size_t work_len, double t0, double t1,
                        double h, int n, const double *X0, const double *P, size_t p_stride,
                        int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride, double *X_out,
-                       double *X_last, int *status, long *steps, int block, int nthreads)
+                       double *X_last, int *status, long *steps, int block, int nthreads, int nquat,
+                       const int *quat)
 {
     lanes_job job;
     int k, ran, nblocks;
     if (f == NULL || nx <= 0 || nparam < 0 || n < 0 || X0 == NULL || (P == NULL && nparam > 0)
         || X_last == NULL || status == NULL || !(h > 0) || !isfinite(h) || !(t1 > t0) || ninput < 0
-        || (ninput > 0 && n_rgrid > 0 && R == NULL) || (n_rgrid > 1 && r_tgrid == NULL))
+        || (ninput > 0 && n_rgrid > 0 && R == NULL) || (n_rgrid > 1 && r_tgrid == NULL)
+        || nquat < 0 || (nquat > 0 && quat == NULL))
         return EOMC_BAD_ARGUMENT;
+    for (k = 0; k < nquat; ++k)
+        if (quat[k] < 0 || quat[k] + 4 > nx)
+            return EOMC_BAD_ARGUMENT;
     if (block <= 0)
         block = 64;
     if (nthreads <= 0)
@@ -964,6 +1003,7 @@ int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, int ninput, size_t w
         job.nsteps = 1;
     job.n = n; job.X0 = X0; job.P = P; job.p_stride = p_stride;
     job.X_out = X_out; job.X_last = X_last; job.status = status; job.steps = steps;
+    job.nquat = nquat; job.quat = quat;
     job.next = 0;
     job.sigint0 = eomc_interrupt_count();
     for (k = 0; k < n; ++k)

@@ -102,13 +102,16 @@ typedef int (*eomc_batch_fn)(int n, double t, const double *X, const double *P, 
  * NULL): as eomc_rollout (a failed row keeps its last good state; steps counts the step it
  * failed in).  Inputs (ninput of them): (n_rgrid, r_tgrid, R + i * r_stride) as
  * eomc_rollout_stats, interpolated at each stage as eomc_integrate does.  work_len: doubles
- * of the model's work buffer (f's scalar tail).  Returns
+ * of the model's work buffer (f's scalar tail).  quat (nquat of them, may be NULL when 0): the
+ * rows of x's unit quaternions' w (eomc_options.quat); each lane's are normalised at the start
+ * and after every step (its k2 rows scaled alike), as eomc_integrate's RK4 does.  Returns
  * EOMC_OK, EOMC_BAD_ARGUMENT, or the status of the first failed row.
  */
 int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, int ninput, size_t work_len, double t0, double t1,
                        double h, int n, const double *X0, const double *P, size_t p_stride,
                        int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride, double *X_out,
-                       double *X_last, int *status, long *steps, int block, int nthreads);
+                       double *X_last, int *status, long *steps, int block, int nthreads, int nquat,
+                       const int *quat);
 
 /*
  * eomc_rollout_stats with method EOMC_IMPLICITFAST's model calls (opt->implicit->terms,

@@ -99,6 +99,35 @@ def test_refusals_name_the_reason(cart, tmp_path):
         rollout(plain, X0, dt=0.01, steps=2, lanes=True)
 
 
+def test_quaternion_rows_in_lanes_equal_the_scalar_rollout(tmp_path):
+    """An MJCF free and ball joint as quaternions: each lane's quaternions
+    are normalised at the start and after every step with its k2 rows scaled alike, as the
+    scalar RK4 does (runtime/c/eomc_rollout.c lane_quats), so the rows equal the scalar
+    rollout's bit for bit -- starts whose quaternions are 0.6-1.5 long included (row 0 of
+    record="steps" is the normalised start, as the scalar's)."""
+    pytest.importorskip("mujoco")
+    from eomc.compiler.mjcf.model import MjcfModel
+    from ..compiler.mjcf.test_mjcf import SMALL
+    path = tmp_path / "small.xml"
+    path.write_text(SMALL.replace(' ctrlrange="-1 1" ctrllimited="true"', ''))     # no switching
+    model = compile_model(MjcfModel(path, limits=False, pairs=False, orientation="quaternion"), "rl_quat", functions=("rhs", "rhs_batch"),
+                          cache_dir=tmp_path, progress=False, cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
+    assert len(model.quaternions) == 2                  # the ball and the free joint
+    rng = np.random.default_rng(5)
+    X0 = np.tile(np.array(model.initial_state, dtype=float), (70, 1))
+    X0[:, model.nq:] = rng.uniform(-2.0, 2.0, (70, model.nu))
+    for i in model.quaternions:
+        X0[:, i:i + 4] += rng.uniform(-0.3, 0.3, (70, 4))
+        X0[:, i:i + 4] *= (rng.uniform(0.6, 1.5, 70) / np.linalg.norm(X0[:, i:i + 4], axis=1))[:, None]
+    for threads in (1, 2):
+        want = rollout(model, X0, dt=0.005, t_final=0.2025, record="steps", threads=threads)
+        got = rollout(model, X0, dt=0.005, t_final=0.2025, record="steps", threads=threads, lanes=True)
+        assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    for i in model.quaternions:
+        assert np.abs(np.linalg.norm(got.x[:, :, i:i + 4], axis=2) - 1.0).max() < 4e-16
+    assert np.abs(got.x[:, -1] - got.x[:, 0]).min() > 1e-6      # every row moved
+
+
 # ---------------------------------------------------------------- implicitfast with contacts
 # eomc_rollout_implicit_lanes: each thread's rows in fibers running the scalar row's code, their
 # NAME_implicit calls made together by NAME_implicit_batch (the contacts' branches as masks)

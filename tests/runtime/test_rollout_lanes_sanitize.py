@@ -92,7 +92,7 @@ int main(void)
     eomc_rollout_stats(m, &opt, 0.0, t1, n, X0, P, (size_t)np, nr, r_t, R, (size_t)(nr * ni), (int)rows, t_eval,
                        A_out, A_last, A_st, A_steps, NULL, 2);
     eomc_rollout_lanes(NAME_rhs_batch_p, nx, np, ni, m->work_size, 0.0, t1, dt, n, X0, P, (size_t)np, nr, r_t, R,
-                       (size_t)(nr * ni), B_out, B_last, B_st, B_steps, 16, 2);
+                       (size_t)(nr * ni), B_out, B_last, B_st, B_steps, 16, 2, 0, NULL);
     for (k = 0; k < n; k++) {
         if (A_st[k] != B_st[k] || A_steps[k] != B_steps[k]) wrong++;
         if (memcmp(A_last + (size_t)k * nx, B_last + (size_t)k * nx, (size_t)nx * sizeof(double))) wrong++;
