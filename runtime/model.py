@@ -716,7 +716,10 @@ class Model:
 
     def linearize(self, t, x, p=None, r=None, parameters=False):
         """(A, B) = (d rhs/d x, d rhs/d r) at an operating point; with ``parameters=True``
-        (A, B, P), P = d rhs/d p (the model must have been built with jac_p)."""
+        (A, B, P), P = d rhs/d p (the model must have been built with jac_p).  Over every
+        state: a quaternion's 4 coordinates included, whose length is no motion (a zero
+        eigenvalue no physics explains); :meth:`linearize_reduced` and ``eomc linearize``
+        report quaternions in their 3-angle tangent chart (eomc.runtime.tangent)."""
         if parameters:
             if self.nparam and "jac_p" not in self._kernels:
                 raise self._missing("jac_p")
@@ -734,7 +737,8 @@ class Model:
 
     def linearize_reduced(self, t, x, p=None, r=None, fixed=None):
         """(A, B, states, basis): linearization over the independent states only (the dependent
-        ones eliminated through the constraint Jacobian); see eomc.runtime.reduced."""
+        ones eliminated through the constraint Jacobian, quaternions in their 3-angle tangent
+        chart); see eomc.runtime.reduced and eomc.runtime.tangent."""
         from .reduced import linearize_reduced
         return linearize_reduced(self, t, x, p, r, fixed=fixed)
 

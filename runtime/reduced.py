@@ -15,6 +15,11 @@ S selecting the independent rows.  Valid at equilibria and along steady
 motions alike (A, B, G are evaluated at the given state, which must be on
 the constraints).  Independent states default to those consistent_state
 keeps (all but the last nhol coordinates and the last nvel speeds).
+
+Quaternion coordinates (MJCF free and ball joints) are first replaced by
+their 3-angle tangent chart (eomc.runtime.tangent: their length is no
+motion), so A, B, states and basis are the chart's, with or without
+constraints.
 """
 from collections import namedtuple
 
@@ -37,30 +42,37 @@ def linearize_reduced(model, t, x, p=None, r=None, fixed=None, tol=1e-8):
     fixed: the independent states by name (default: the model's independent ones).
     tol: x must satisfy the constraints to this (else a ModelError saying by how much).
     """
+    from .tangent import tangent_chart
+    chart = tangent_chart(model, x)
+    x = chart.x                             # its quaternions made unit (the same orientations)
     A, B = model.linearize(t, x, p, r)
-    x = np.asarray(x, dtype=np.float64)
-    names = model.state_names
+    A, B, C = chart.S @ A @ chart.T, chart.S @ B, chart.T
+    names = chart.states
     k = model.nhol + model.nvel
     if k == 0:
-        return ReducedLinearization(A, B, tuple(names), np.eye(model.nx))
+        return ReducedLinearization(A, B, tuple(names), C)
     hol, vel = start_residual(model, t, x, p, r)
     if max(hol, vel) > tol:
         raise ModelError(f"{model.name}: the operating point is off the constraints (configuration "
                          f"residual {hol:.3g}, velocity residual {vel:.3g}); complete it with "
                          f"model.consistent_state first")
     free_q, free_u = _free(model, fixed)
-    dep = free_q + free_u                   # the states solved for (dependent)
-    ind = [i for i in range(model.nx) if i not in dep]
+    quat = [model.state_names[i] for i in free_q + free_u if chart.columns[i] < 0]
+    if quat:
+        raise ModelError(f"{model.name}: the constraints cannot be solved for a quaternion coordinate "
+                         f"({', '.join(quat)}); pick other independent states with fixed=")
+    dep = [chart.columns[i] for i in free_q + free_u]   # the states solved for (dependent), chart columns
+    ind = [i for i in range(len(names)) if i not in dep]
     if len(dep) != k:
         raise ModelError(f"{model.name}: {k} constraint(s) need exactly {k} dependent states; "
                          f"fixing {', '.join(names[i] for i in ind)} leaves {len(dep)}")
-    G = model.constraints_jacobian(t, x, p, r)
+    G = model.constraints_jacobian(t, x, p, r) @ C
     GD, GI = G[:, dep], G[:, ind]
     if np.linalg.matrix_rank(GD) < k:
         raise ModelError(f"{model.name}: the constraints cannot be solved for "
                          f"{', '.join(names[i] for i in dep)} at this state (their Jacobian is "
                          f"singular); pick other independent states with fixed=")
-    T = np.zeros((model.nx, len(ind)))
+    T = np.zeros((len(names), len(ind)))
     T[ind, np.arange(len(ind))] = 1.0
     T[dep, :] = -np.linalg.solve(GD, GI)
-    return ReducedLinearization(A[ind] @ T, B[ind], tuple(names[i] for i in ind), T)
+    return ReducedLinearization(A[ind] @ T, B[ind], tuple(names[i] for i in ind), C @ T)

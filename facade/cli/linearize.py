@@ -3,7 +3,10 @@
 The point is the model's initial_state with --x0 overrides (completed onto the
 constraints with --consistent); --reduced eliminates the dependent states
 through the constraint Jacobian (model.linearize_reduced), --fixed names the
-independent states to keep instead of the model's own.
+independent states to keep instead of the model's own.  A quaternion (MJCF free
+and ball joints) is reported in its 3-angle tangent chart, q_<joint>_rotx..z
+(eomc.runtime.tangent): its length is no motion, and over its 4 coordinates A
+would have an eigenvalue no physics explains.
 """
 
 import shutil
@@ -83,10 +86,14 @@ def run(args):
         lin = model.linearize_reduced(args.t, x, p, r, fixed=fixed)
         A, B, states = lin.A, lin.B, lin.states
     else:
-        A, B = model.linearize(args.t, x, p, r)
-        states = model.state_names
+        from eomc.runtime.tangent import linearize_tangent
+        lin = linearize_tangent(model, args.t, x, p, r)     # no quaternions: model.linearize's A, B
+        A, B, states = lin.A, lin.B, lin.states
     print(_wrapped(f"eomc linearize {model.name} at t={args.t:g}: "
                    + ", ".join(f"{n}={v:.6g}" for n, v in zip(model.state_names, x))))
+    if model.quaternions:
+        print(_wrapped("quaternions in their tangent chart: q_<joint>_rotx, _roty, _rotz = the rotation "
+                       "vector (body frame) from the point's orientation, q = q0 (x) Exp(rot)"))
     print(_matrix("A", A, states, states))
     if model.ninput:
         print(_matrix("B", B, states, model.input_names))
