@@ -209,6 +209,7 @@ int eomc_bdf_start(eomc_bdf *b, double t, const double *y, const double *f, doub
     b->c_lu = 0.0;
     if ((s = b->fns->jac(b->fns->ctx, t, y, b->J))) return s;
     b->cur_jac = 1;
+    b->jac_failed = 0;
     return EOMC_OK;
 }
 
@@ -457,6 +458,9 @@ int eomc_bdf_trial(eomc_bdf *b, double t1)
                 if (b->fns->aborted(b->fns->ctx)) return s;
                 b->bad = s;
                 b->cur_jac = 0;     /* J is not one: Newton's failure evaluates it again */
+                b->jac_failed = 1;
+            } else {
+                b->jac_failed = 0;
             }
         }
         c = b->h / a;
@@ -481,15 +485,21 @@ int eomc_bdf_trial(eomc_bdf *b, double t1)
                 if (b->fns->aborted(b->fns->ctx)) return s;
                 b->bad = s;
                 b->cur_jac = 0;     /* J is not one: Newton's next failure evaluates it again */
+                b->jac_failed = 1;
                 break;
             }
             b->cur_jac = 1;
+            b->jac_failed = 0;
             relin = from_last = ok;
         }
         if (!conv) {
             st->rejected++;
             first = 0;
-            refresh = b->cur_jac;
+            /* a J that failed (its array partly written) may also have failed the LU before
+             * Newton could ask for another: one at the next predictor, or every later step
+             * size would fail alike (a sphere dropped on a plane, quaternion build, BDF:
+             * 29 cuts to h = 3e-16 after a J at a predictor deep in the plane failed) */
+            refresh = b->cur_jac || b->jac_failed;
             relin = 0;
             rescale(b, NEWTON_CUT);
             continue;

@@ -57,6 +57,8 @@ typedef struct eomc_bdf {
     int pivd[EOMC_BDF_MAX_DEP];
     double *rk;              /* n: the kept rows' right-hand side (solve_lu) */
     int cur_jac;             /* J was evaluated at the current step's start or later */
+    int jac_failed;          /* the last J evaluation failed: J holds no Jacobian (a
+                                rejected step then takes one at its next predictor) */
     int err_fails;           /* consecutive error-test failures at this step */
     int bad;                 /* the last model failure while the step kept shrinking: the
                                 run's status when it becomes too small (0: none) */
