@@ -217,6 +217,7 @@ def thrown_ball(cache_dir, name, functions=None):
                      **({"functions": functions} if functions else {}))
     rng = np.random.default_rng(3)
     x0 = np.zeros((16, m.nx))
+    x0[:, list(m.quaternions)] = 1.0          # upright: a quaternion's w (none in an Euler build)
     x0[:, list(m.state_names).index("q_root_z")] = 0.06 + 0.3 * rng.random(16)
     x0[:, m.nq:] = rng.normal(size=(16, m.nu))
     return m, x0
