@@ -40,6 +40,7 @@ def _thrown(model, speed):
     """The ball (10 mm from the trunk at the start, on the side away from the arm) thrown at the
     trunk across y, both falling."""
     x0 = np.zeros(model.nx)
+    x0[list(model.quaternions)] = 1.0       # upright (the MJCF default: each quaternion's w)
     names = list(model.state_names)
     x0[names.index("q_joint0_z")] = 0.3
     x0[names.index("q_joint3_y")] = -0.1

@@ -408,6 +408,7 @@ def test_implicitfast_lanes_turn_a_free_joints_momentum_as_the_scalar_path(tmp_p
                          cache_dir=tmp_path, progress=False, cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
     rng = np.random.default_rng(3)
     X0 = np.zeros((11, ball.nx))
+    X0[:, list(ball.quaternions)] = 1.0                  # upright (the MJCF default: a quaternion's w)
     X0[:, 2] = rng.uniform(0.0995, 0.3, 11)               # some in touch, some landing
     X0[:, ball.nq:] = rng.uniform(-10.0, 10.0, (11, ball.nu))
     kw = dict(dt=0.002, steps=100, method="implicitfast", threads=1)

@@ -317,6 +317,8 @@ def test_implicitfast_rows_path_clean_under_asan_and_equal_to_the_scalar_rollout
     src = es.write_sources(gm, str(tmp_path))
     names = list(gm.metadata["state_names"])
     x0 = [0.0] * len(names)
+    for i in gm.metadata.get("quaternions", ()):     # upright (the MJCF default: each quaternion's w)
+        x0[i] = 1.0
     for name, v in (("q_joint0_z", 0.3), ("q_joint3_y", -0.1), ("q_joint3_z", 0.3)):
         x0[names.index(name)] = v
     out = _build_and_run(src, _hopper_driver(spec, gm, x0), tmp_path, "address,undefined",
