@@ -21,19 +21,15 @@ their 3-angle tangent chart (eomc.runtime.tangent: their length is no
 motion), so A, B, states and basis are the chart's, with or without
 constraints.
 """
-from collections import namedtuple
-
 import numpy as np
 
 from eomc.runtime.errors import ModelError
 
 from .consistent import _free, start_residual
+from .tangent import ReducedLinearization, tangent_chart
 
 __all__ = ["ReducedLinearization", "linearize_reduced"]
 
-ReducedLinearization = namedtuple("ReducedLinearization", "A B states basis")
-ReducedLinearization.__doc__ = """A (n x n), B (n x ninput) over the independent ``states`` (names,
-model order); ``basis`` T (nx x n) maps their perturbations to the full state's."""
 
 
 def linearize_reduced(model, t, x, p=None, r=None, fixed=None, tol=1e-8):
@@ -42,7 +38,6 @@ def linearize_reduced(model, t, x, p=None, r=None, fixed=None, tol=1e-8):
     fixed: the independent states by name (default: the model's independent ones).
     tol: x must satisfy the constraints to this (else a ModelError saying by how much).
     """
-    from .tangent import tangent_chart
     chart = tangent_chart(model, x)
     x = chart.x                             # its quaternions made unit (the same orientations)
     A, B = model.linearize(t, x, p, r)

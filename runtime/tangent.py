@@ -27,7 +27,13 @@ from collections import namedtuple
 
 import numpy as np
 
-__all__ = ["TangentChart", "tangent_chart", "linearize_tangent"]
+__all__ = ["TangentChart", "tangent_chart", "linearize_tangent", "ReducedLinearization"]
+
+# Defined here, not in reduced.py, so that the import runs one way (reduced -> tangent): reduced.py
+# re-exports it and reads tangent_chart.
+ReducedLinearization = namedtuple("ReducedLinearization", "A B states basis")
+ReducedLinearization.__doc__ = """A (n x n), B (n x ninput) over the independent ``states`` (names,
+model order); ``basis`` T (nx x n) maps their perturbations to the full state's."""
 
 TangentChart = namedtuple("TangentChart", "T S states x columns")
 TangentChart.__doc__ = """T (nx x n) maps the chart's perturbations to the full state's, S (n x nx)
@@ -81,7 +87,6 @@ def linearize_tangent(model, t, x, p=None, r=None):
     """(A, B, states, basis) with each quaternion in its tangent chart (the module docstring):
     A = S A_full T, B = S B_full at ``x`` (its quaternions made unit first), ``basis`` = T.
     A model without quaternions: model.linearize's A and B, basis 1."""
-    from .reduced import ReducedLinearization
     chart = tangent_chart(model, x)
     A, B = model.linearize(t, chart.x, p, r)
     if not getattr(model, "quaternions", ()):
