@@ -104,16 +104,59 @@ def run(args):
 def eigenvalue_text(A, columns=None):
     """"eigenvalues: ..." of A, each part within round-off of 0 printed as 0, and a note saying
     how many and below what.  Why: a floating base's position and heading are free, so A has
-    zero eigenvalues in 2x2 Jordan blocks, which LAPACK returns as +-2e-9 (+-sqrt(eps |A|)
-    at most): A1 --floating-base --ground printed twelve such values, some with a positive
-    real part that reads as an unstable mode (first hour s28)."""
+    zero eigenvalues in Jordan blocks, which LAPACK returns as small nonzero values: A1
+    --floating-base --ground printed twelve such values, some with a positive real part that
+    reads as an unstable mode (first hour s28).  A part below sqrt(eps |A|) was printed as 0;
+    but at A1's lifted start A is nilpotent with blocks of size 4 (a base tilt turns gravity
+    into a linear acceleration: q_rx -> v_y -> q_y), whose zeros LAPACK returns as +-2.4e-7j,
+    above that (s29).  So the zero eigenvalue's multiplicity m and largest block k are read
+    from the ranks of A, A^2, ... (_zero_blocks), and the m eigenvalues nearest 0 print as 0
+    when they lie within (n eps)^(1/k) |A|, the round-off of a zero in a block of size k."""
     A = np.asarray(A, dtype=float)
     eig = np.linalg.eigvals(A) if A.size else np.zeros(0)
     tol = float(np.sqrt(np.finfo(float).eps * max(1.0, np.linalg.norm(A, 1) if A.size else 1.0)))
     clean = [complex(0.0 if abs(z.real) < tol else z.real, 0.0 if abs(z.imag) < tol else z.imag) for z in eig]
+    m, k = _zero_blocks(A)
+    block_tol = float((A.shape[0] * np.finfo(float).eps) ** (1.0 / k) * np.linalg.norm(A, 2)) if m else 0.0
+    nearest = np.argsort(np.abs(eig))[:m]
+    zeros = [i for i in nearest if abs(eig[i]) <= block_tol]
+    if len(zeros) == m:             # the ranks and LAPACK agree: those m are A's zero eigenvalue
+        for i in zeros:
+            clean[i] = 0j
     rounded = sum(1 for z, c in zip(eig, clean) if z != c)
     text = ", ".join(f"{z.real:.6g}{z.imag:+.6g}j" if z.imag else f"{z.real:.6g}"
                      for z in sorted(clean, key=lambda z: (z.real, z.imag)))
-    note = (f"\n  ({rounded} of them had a real or imaginary part within round-off of 0, below "
-            f"{tol:.2g} = sqrt(eps |A|): printed as 0)" if rounded else "")
-    return _wrapped(f"eigenvalues: {text}", columns) + note
+    beyond = max((abs(eig[i]) for i in zeros if abs(eig[i].real) >= tol or abs(eig[i].imag) >= tol),
+                 default=0.0) if len(zeros) == m else 0.0
+    if not rounded:
+        return _wrapped(f"eigenvalues: {text}", columns)
+    if beyond:
+        note = (f"({rounded} of them printed as 0: A's zero eigenvalue is {m}-fold, in Jordan blocks of "
+                f"up to size {k} (the ranks of A, A^2, ...), which LAPACK returns within (n eps)^(1/{k}) |A| "
+                f"= {block_tol:.2g} of 0, here up to {beyond:.2g}; other parts within round-off of 0 "
+                f"are below {tol:.2g} = sqrt(eps |A|))")
+    else:       # one line, as before s30
+        return (_wrapped(f"eigenvalues: {text}", columns) + f"\n  ({rounded} of them had a real or imaginary "
+                f"part within round-off of 0, below {tol:.2g} = sqrt(eps |A|): printed as 0)")
+    return _wrapped(f"eigenvalues: {text}", columns) + "\n" + textwrap.fill(
+        note, width=columns or _terminal_columns(), initial_indent="  ", subsequent_indent="   ",
+        break_on_hyphens=False, break_long_words=False)
+
+
+def _zero_blocks(A):
+    """(m, k): the multiplicity of A's eigenvalue 0 and the size of its largest Jordan block, from
+    the numerical ranks of A, A^2, ... (rank(A^j) stops falling at j = k; m = n - rank(A^k)).
+    A singular value of A^j counts below n j eps |A|^j, the round-off of j products."""
+    n = A.shape[0] if A.ndim == 2 else 0
+    norm = float(np.linalg.norm(A, 2)) if n else 0.0
+    if norm == 0.0:
+        return 0, 1
+    eps = np.finfo(float).eps
+    power, rank = np.eye(n), n
+    for j in range(1, n + 1):
+        power = power @ A
+        now = int(np.sum(np.linalg.svd(power, compute_uv=False) > n * j * eps * norm ** j))
+        if now == rank:
+            return n - rank, max(j - 1, 1)
+        rank = now
+    return n - rank, n

@@ -69,6 +69,30 @@ def test_eigenvalues_within_round_off_of_zero_print_as_zero():
     assert eigenvalue_text(np.zeros((2, 2))) == "eigenvalues: 0, 0"
 
 
+
+def test_zeros_in_larger_jordan_blocks_print_as_zero_and_real_modes_stay():
+    """A1 --floating-base --ground at its lifted start (first hour s29): A is nilpotent with
+    Jordan blocks of size 4 (a base tilt turns gravity into a linear acceleration, q_rx -> v_y ->
+    q_y), whose zeros LAPACK returns as +-2.4e-7j, above sqrt(eps |A|) = 4.7e-8: they printed as
+    modes.  The same chain here, with a Jacobian entry at round-off (1e-15 of |A| ~ 10), puts
+    LAPACK's values at 3e-4; the ranks of A, A^2, ... say 0 is 4-fold in a block of size 4, so
+    those four print as 0 with a note saying why; a damped oscillator beside them is kept."""
+    from eomc.cli.linearize import _zero_blocks, eigenvalue_text
+
+    A = np.zeros((6, 6))
+    A[0, 2] = A[1, 3] = 1.0     # q = (y, rx), v = (v_y, v_rx)
+    A[2, 1] = 9.81              # tilt -> linear acceleration
+    A[3, 0] = 1e-15             # round-off in a Jacobian entry
+    A[4, 5], A[5, 4], A[5, 5] = 1.0, -4.0, -0.1
+    assert np.sort(np.abs(np.linalg.eigvals(A)))[3] > 1e-4           # what LAPACK gives
+    assert _zero_blocks(A) == (4, 4)
+    text = eigenvalue_text(A, columns=100)
+    assert text.splitlines()[0] == "eigenvalues: -0.05-1.99937j, -0.05+1.99937j, 0, 0, 0, 0", text
+    note = " ".join(text.split())
+    assert "A's zero eigenvalue is 4-fold, in Jordan blocks of up to size 4" in note, note
+    assert _zero_blocks(np.diag([1e-9, -1e-3, 2.0])) == (0, 1)         # slow modes are not zeros
+    assert _zero_blocks(np.array([[0.0, 1.0], [0.0, 0.0]])) == (2, 2)
+
 def test_a_wide_matrix_is_printed_in_blocks_of_columns_that_fit():
     """A1 --floating-base --ground's A has 36 columns: one line per row was ~700 characters
     (first hour s28).  A table wider than the terminal (100 characters when not one) is printed
