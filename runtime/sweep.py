@@ -399,9 +399,51 @@ def sweep(model, cases, t_span, *, map=None, chunk_size=None, reduce=None, threa
         for out in _dispatch(map, kind, model, tasks):
             done[out["start"]] = out
             bar.step(len(out["status"]))
+    except BaseException as stop:
+        _keep_chunks(stop, lambda: _assemble(model, tasks, done, reduce, first[0]["t_eval"], False))
+        raise
     finally:
         bar.close()
-    parts = [done[task["start"]] for task in tasks]
+    return _assemble(model, tasks, done, reduce, first[0]["t_eval"], raise_on_failure)
+
+
+STOPPED = 9     # EOMC_ABORTED: a case whose chunk had not come back when the sweep was stopped
+NOT_RUN = "not run: the sweep was stopped (Ctrl-C or SIGTERM) before this case's chunk came back"
+
+
+def _keep_chunks(stop, make):
+    """Ctrl-C (KeyboardInterrupt) or a SIGTERM handler's exception: every case as the sweep would
+    return it in ``stop.partial_result``, the finished chunks' cases as they ended and the others
+    status 9 (STOPPED), NaN, message NOT_RUN -- as ``rollout``'s partial_result.  Why: a stopped
+    sweep of hours kept nothing (s29); the command line writes this, marked partial."""
+    if isinstance(stop, Exception):
+        return
+    try:
+        stop.partial_result = make()
+    except BaseException:       # noqa: BLE001 -- the cases cannot be assembled: the stop goes on without them
+        pass
+
+
+def _not_run(model, task, reduce, t_rows):
+    """A chunk that did not come back, in run_chunk's layout: status STOPPED, NaN, no stats."""
+    m = len(task["x0"])
+    rows = np.array([float(task["t_span"][1])]) if reduce == "final" else np.asarray(t_rows, dtype=float)
+    out = {"start": task["start"], "status": np.full(m, STOPPED, dtype=int), "messages": [NOT_RUN] * m,
+           "stats": [None] * m, "x_final": np.full((m, model.nx), np.nan), "t_final": np.full(m, np.nan),
+           "t_events": None, "x_events": None, "event_stop": None}
+    if callable(reduce) and not isinstance(reduce, str):
+        out["values"] = [None] * m
+    else:
+        out.update(t=rows, x=np.full((m, rows.size, model.nx), np.nan),
+                   outputs={k: np.full((m, rows.size), np.nan) for k in model.output_names})
+    return out
+
+
+def _assemble(model, tasks, done, reduce, t_eval, raise_on_failure):
+    """The chunks in case order as sweep returns them (a chunk not in ``done``: _not_run)."""
+    n = sum(len(task["x0"]) for task in tasks)
+    t_rows = next((part["t"] for part in done.values() if "t" in part), t_eval)   # a finished chunk's
+    parts = [done.get(task["start"]) or _not_run(model, task, reduce, t_rows) for task in tasks]
     status = np.concatenate([part["status"] for part in parts])
     messages = [m for part in parts for m in part["messages"]]
     stats = [s for part in parts for s in part["stats"]]

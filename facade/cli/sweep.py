@@ -182,16 +182,22 @@ def _pyarrow():
     return pyarrow
 
 
-def _write(path, table):
+def _write(path, table, partial=None):
     """Write the results table; a half-written file never takes the place of ``path``
-    (it is written beside it under a temporary name, then renamed)."""
+    (it is written beside it under a temporary name, then renamed).  ``partial``: why the
+    table is not whole (a stopped sweep), as a last line ``# partial: <why>`` of a CSV
+    (as simulate's ``# incomplete``; numpy.loadtxt and pandas with comment="#" skip it) and
+    as the schema's metadata ``eomc_partial`` of a .parquet."""
     path = Path(path)
     if path.suffix not in (".csv", ".parquet"):
         raise ValueError(f"-o {path}: write .csv or .parquet")
     with atomic_path(path) as tmp:
         if path.suffix == ".parquet":
             pyarrow = _pyarrow()
-            pyarrow.parquet.write_table(pyarrow.table(table), tmp)
+            arrow = pyarrow.table(table)
+            if partial:
+                arrow = arrow.replace_schema_metadata({**(arrow.schema.metadata or {}), b"eomc_partial": partial})
+            pyarrow.parquet.write_table(arrow, tmp)
         else:
             with open(tmp, "w", newline="") as fh:
                 writer = csv.writer(fh)
@@ -199,6 +205,8 @@ def _write(path, table):
                 columns = [[repr(float(v)) if isinstance(v, (float, np.floating)) else v for v in col]
                            for col in table.values()]
                 writer.writerows(zip(*columns))
+                if partial:
+                    fh.write(f"# partial: {partial}\n")
     return path
 
 
@@ -237,8 +245,8 @@ def run(args):
         if failure is None:
             raise
         raise failure from None
-    except BaseException:       # Ctrl-C, SIGTERM (raised like it by the command line): stop the workers
-        stopping = True
+    except BaseException as stop:   # Ctrl-C, SIGTERM (raised like it by the command line): stop the workers
+        stopping = stop
         raise
     finally:
         try:
@@ -250,7 +258,44 @@ def run(args):
                 executor.shutdown()
         except Exception:       # a lost scheduler cannot be closed politely; the error above says so
             pass
+        if stopping is not False:
+            _write_partial(args, model, ids, columns, getattr(stopping, "partial_result", None))
     n = len(res.status)
+    table = _table(model, ids, columns, res)
+    failed = int(np.count_nonzero(res.status))
+    where = args.scheduler or f"{args.workers} local process{'es' if args.workers > 1 else ''}"
+    print(f"{model.name}: {n} cases on {where}, {failed} failed; wrote {_write(args.output, table)}")
+    if failed:
+        first = int(np.flatnonzero(res.status)[0])
+        print(f"  first failure, case {first} ({args.cases}:{lines[first]}): {res.messages[first]}")
+    return 1 if failed == n else 0
+
+
+def _write_partial(args, model, ids, columns, res):
+    """A stopped sweep (Ctrl-C, SIGTERM): the cases of the chunks that came back, written to -o
+    marked partial (the others status 9, NaN, "not run: ..."), and a line on stderr saying so.
+    Why: a sweep stopped after hours wrote nothing (s29).  Nothing came back: nothing written."""
+    import sys
+    from eomc.runtime.sweep import STOPPED
+    if res is None or not np.any(res.status != STOPPED):
+        print(f"eomc sweep: stopped before any chunk of cases came back: nothing written to {args.output}",
+              file=sys.stderr)
+        return
+    n, ran = len(res.status), int(np.count_nonzero(res.status != STOPPED))
+    why = (f"the sweep was stopped; {ran} of {n} cases ran, the other {n - ran} have status {STOPPED} "
+           f"and message 'not run'")
+    try:
+        _write(args.output, _table(model, ids, columns, res), partial=why)
+    except Exception as exc:    # noqa: BLE001 -- the stop goes on; say why nothing was kept
+        print(f"eomc sweep: stopped; could not write the {ran} finished cases to {args.output}: {exc}",
+              file=sys.stderr)
+        return
+    print(f"eomc sweep: stopped: wrote the {ran} of {n} cases whose chunks had finished to {args.output}, "
+          f"marked partial (the other {n - ran}: status {STOPPED}, 'not run')", file=sys.stderr)
+
+
+def _table(model, ids, columns, res):
+    """The results table: the cases' columns, then status, t_final, final_* and message."""
     table = {} if ids is None else {"case": ids}
     table.update({k: v.tolist() for k, v in columns.items()})
     table["status"] = res.status.astype(int).tolist()
@@ -266,10 +311,4 @@ def run(args):
             table[f"first_{name}"] = [float("nan") if e is None or not len(e[name]) else float(e[name][0])
                                       for e in res.t_events]
     table["message"] = ["" if s == 0 else m for s, m in zip(res.status, res.messages)]
-    failed = int(np.count_nonzero(res.status))
-    where = args.scheduler or f"{args.workers} local process{'es' if args.workers > 1 else ''}"
-    print(f"{model.name}: {n} cases on {where}, {failed} failed; wrote {_write(args.output, table)}")
-    if failed:
-        first = int(np.flatnonzero(res.status)[0])
-        print(f"  first failure, case {first} ({args.cases}:{lines[first]}): {res.messages[first]}")
-    return 1 if failed == n else 0
+    return table

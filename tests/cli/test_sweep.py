@@ -346,3 +346,39 @@ def test_sigterm_stops_the_local_workers_at_once(built, tmp_path):
     assert code == 143 and "terminated" in rest, (code, rest)
     assert took < 10.0, took
     assert not (tmp_path / "out.csv").exists()
+
+
+def test_a_stopped_sweep_writes_the_chunks_that_came_back_marked_partial(built, tmp_path):
+    """s29: a sweep stopped by SIGTERM (or Ctrl-C) wrote nothing, however many chunks had come back.
+    Now -o gets every case: those of the finished chunks as they ended, the others status 9 with
+    a "not run" message, the CSV's last line "# partial: ..." (written under a temporary name and
+    renamed), and stderr says so; the exit status is still 143.  Here the first two chunks of 50
+    (a soft spring: few steps) come back at once, the others (~4 s each) are stopped."""
+    import signal
+    import subprocess
+    import sys
+    cases = tmp_path / "long.csv"
+    cases.write_text("q,k,c\n" + "".join(f"{0.1 + i * 1e-4},{8e-6 if i < 100 else 8},0\n" for i in range(800)))
+    out = tmp_path / "out.csv"
+    proc = subprocess.Popen([sys.executable, "-m", "eomc", "sweep", str(built.directory), "--cases", str(cases),
+                             "--t-final", "2e4", "-o", str(out), "--workers", "2", "--chunk-size", "50"],
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        seen = []
+        while not any(line.startswith("sweep: 100/800 cases") for line in seen):
+            seen.append(proc.stderr.readline())
+            assert seen[-1], seen
+        proc.send_signal(signal.SIGTERM)
+        code = proc.wait(timeout=120)
+    finally:
+        proc.kill()
+    rest = proc.stderr.read()
+    assert code == 143 and "terminated" in rest, (code, rest)
+    assert f"wrote the 100 of 800 cases whose chunks had finished to {out}, marked partial" in rest, rest
+    lines = out.read_text().splitlines()
+    assert lines[-1].startswith("# partial: the sweep was stopped; 100 of 800 cases ran"), lines[-1]
+    rows = list(csv.DictReader(lines[:-1]))
+    assert len(rows) == 800 and [r["status"] for r in rows] == ["0"] * 100 + ["9"] * 700
+    assert all(np.isfinite(float(r["final_q"])) for r in rows[:100])
+    assert all(r["final_q"] == "nan" and r["message"].startswith("not run") for r in rows[100:])
+    assert not list(tmp_path.glob(".out.csv.eomc-tmp-*"))

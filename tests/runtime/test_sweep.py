@@ -314,3 +314,45 @@ def test_consistent_starts_in_a_sweep():
     for i, v in enumerate(q1):
         single = simulate(fourbar, {"q1": v}, (0, 0.5), consistent=True)
         np.testing.assert_array_equal(res.x_final[i], single.x_final)
+
+
+
+class _StopAt:
+    """reduce= that raises KeyboardInterrupt (Ctrl-C) at the case whose q starts at ``q``."""
+
+    def __init__(self, q):
+        self.q = q
+
+    def __call__(self, res):
+        if res.x[0, 0] == self.q:
+            raise KeyboardInterrupt
+        return res.x[-1, 0]
+
+
+@pytest.mark.parametrize("reduce", ["final", None, "callable"])
+def test_a_stopped_sweep_keeps_the_chunks_that_came_back(model, reduce, monkeypatch):
+    """s29: Ctrl-C or SIGTERM during a sweep lost every finished chunk (the command line wrote
+    nothing).  Now the exception carries the sweep's result in ``partial_result``: the chunks
+    that came back as they ended, the others status 9, NaN and a "not run" message."""
+    import eomc.runtime.sweep as sw
+    x0 = np.column_stack([np.arange(1.0, 7.0), np.zeros(6)])
+    if reduce == "callable":
+        reduce = _StopAt(5.0)       # case 4: the third chunk of two
+    else:                           # stop in the third chunk, through the chunk runner
+        real = sw.run_chunk
+        monkeypatch.setattr(sw, "run_chunk", lambda m, task: (_ for _ in ()).throw(KeyboardInterrupt)
+                            if task["start"] == 4 else real(m, task))
+    with pytest.raises(KeyboardInterrupt) as info:
+        eomc.sweep(model, {"x0": x0}, (0, 1), chunk_size=2, reduce=reduce, progress=False, threads=1, **KW)
+    res = info.value.partial_result
+    assert res.status.tolist() == [0, 0, 0, 0, 9, 9]
+    assert res.messages[4].startswith("not run: the sweep was stopped") and res.messages[3] == "ok"
+    assert np.all(np.isnan(res.x_final[4:])) and np.all(np.isnan(res.t_final[4:]))
+    whole = eomc.sweep(model, {"x0": x0[:4]}, (0, 1), chunk_size=2, reduce="final", progress=False, threads=1,
+                       **KW)
+    np.testing.assert_array_equal(res.x_final[:4], whole.x_final)
+    if callable(reduce):
+        assert res.values[4:] == [None, None] and all(np.isfinite(v) for v in res.values[:4])
+    else:
+        assert res.x.shape[0] == 6 and np.all(np.isnan(res.x[4:])) and np.all(np.isfinite(res.x[:4]))
+        assert res.t.size == res.x.shape[1] and all(np.all(np.isnan(v[4:])) for v in res.outputs.values())
