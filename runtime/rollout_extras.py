@@ -80,8 +80,8 @@ def rollout_extras(model, a, X0, P, p_stride, controls, r, gains, t1, record, nt
     t_eval = a["t_eval"] if record == "steps" else np.array([t1])
     X_out = np.full((n, t_eval.size, nx), np.nan)
     X_last = np.empty((n, nx))
-    status = np.empty(n, dtype=np.intc)
-    nstep = np.empty(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)
+    status = np.full(n, 9, dtype=np.intc)      # EOMC_ABORTED until a row's run says otherwise
+    nstep = np.zeros(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)   # 0: a row not run (a stop)
     stats = ffi.new("eomc_stats[]", max(n, 1))
     ex = ffi.new("eomc_rollout_extras *")
     keep = []
@@ -118,14 +118,26 @@ def rollout_extras(model, a, X0, P, p_stride, controls, r, gains, t1, record, nt
             for k, v in enumerate(np.min([depth_limits(model, row[:-1]) for row in P], axis=0)):
                 ikeep[1][k] = v
         keep.append(ikeep)
-    integrator_library(model.ffi)._arm()      # Ctrl-C stops every thread at its next evaluation
-    if n:
-        n_rgrid, r_tgrid, R, r_stride = controls
-        lib.eomc_rollout_ex(model.c_model, _options(ffi, a, implicit), 0.0, t1, n, buf(X0), buf(P), p_stride,
-                            n_rgrid, buf(r_tgrid) if r_tgrid is not None else ffi.NULL,
-                            buf(R) if R is not None else ffi.NULL, r_stride, ex, t_eval.size, buf(t_eval),
-                            buf(X_out), buf(X_last), ffi.from_buffer("int[]", status),
-                            ffi.from_buffer("long[]", nstep), stats, nthreads)
+    try:
+        integrator_library(model.ffi)._arm()      # Ctrl-C stops every thread at its next evaluation
+        if n:
+            n_rgrid, r_tgrid, R, r_stride = controls
+            lib.eomc_rollout_ex(model.c_model, _options(ffi, a, implicit), 0.0, t1, n, buf(X0), buf(P), p_stride,
+                                n_rgrid, buf(r_tgrid) if r_tgrid is not None else ffi.NULL,
+                                buf(R) if R is not None else ffi.NULL, r_stride, ex, t_eval.size, buf(t_eval),
+                                buf(X_out), buf(X_last), ffi.from_buffer("int[]", status),
+                                ffi.from_buffer("long[]", nstep), stats, nthreads)
+    except BaseException as stop:
+        # Ctrl-C or a SIGTERM handler's exception as the C threads return (s29: this path kept
+        # nothing): the rows as they are, unjudged, as rollout's own (rollout._keep_rows; not
+        # imported from there: rollout imports this module)
+        if not isinstance(stop, Exception):
+            try:
+                stop.partial_result = _stopped_rows(model, t_eval, X_out if record == "steps" else X_last,
+                                                    status, nstep)
+            except BaseException:       # noqa: BLE001 -- the rows cannot be wrapped: the stop goes on
+                pass
+        raise
     status = status.astype(int)
     event_stop = np.full(n, None, dtype=object)
     t_events = [None] * n if binding is not None and "events" in a else None
@@ -174,6 +186,17 @@ def rollout_extras(model, a, X0, P, p_stride, controls, r, gains, t1, record, nt
                         x=X_out if record == "steps" else X_last, status=status, steps=nstep.astype(int),
                         state_names=tuple(model.state_names))
     out.event_stop, out.t_events, out.messages = event_stop, t_events, messages
+    return out
+
+
+def _stopped_rows(model, t_eval, x, status, nstep):
+    """The rows of a stopped rollout_extras as a RolloutResult: status and steps as the C threads
+    left them (9, EOMC_ABORTED, for a row not run to the end), not judged (no verdict, no events)."""
+    out = RolloutResult(t=np.asarray(t_eval, dtype=np.float64).copy(), x=x, status=status.astype(int),
+                        steps=nstep.astype(int), state_names=tuple(model.state_names))
+    out.x[(out.status == 9) & (out.steps == 0)] = np.nan       # never started: nothing was written
+    out.event_stop, out.t_events = np.full(len(status), None, dtype=object), None
+    out.messages = {i: STATUS_NAMES.get(9, "stopped") for i in np.flatnonzero(status == 9)}
     return out
 
 

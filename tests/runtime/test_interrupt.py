@@ -180,10 +180,12 @@ ROLLOUT_TERM_CHILD = textwrap.dedent("""
     import eomc
     from eomc.runtime.loader import load
     kind, where = sys.argv[1], sys.argv[2]
-    if kind == "adaptive":          # the oscillator: 64 rows of ~10 s each (dop853 to t = 1e5)
+    if kind in ("adaptive", "extras"):  # the oscillator: 64 rows of ~10 s each (dop853 to t = 1e5)
         model = load(where)
         X0 = np.tile([1.0, 0.0], (64, 1))
-        kw = dict(method="dop853", t_final=1e5, max_steps=10 ** 12, p=[2.0, 0.0, 8.0])
+        # "extras": method="auto" runs the rows through eomc_rollout_ex (runtime/rollout_extras.py)
+        kw = dict(method="dop853" if kind == "adaptive" else "auto", t_final=1e5, max_steps=10 ** 12,
+                  p=[2.0, 0.0, 8.0])
     else:                           # the cart in lanes: 512 rows of RK4, blocks of 64, ~10 s in all
         from eomc.compiler.driver import compile as compile_model
         model = compile_model(sys.argv[3], "rl_cart", functions=("rhs", "rhs_batch"), cache_dir=where,
@@ -198,6 +200,8 @@ ROLLOUT_TERM_CHILD = textwrap.dedent("""
             return real(*args, **kwargs)
         return call
     ro._run_rows, ro._rollout_lanes = starting(ro._run_rows), starting(ro._rollout_lanes)
+    import eomc.runtime.rollout_extras as rx
+    rx.integrator_library = starting(rx.integrator_library)     # armed just before its C call
     def send():
         started.wait()
         time.sleep(0.3)
@@ -215,16 +219,17 @@ ROLLOUT_TERM_CHILD = textwrap.dedent("""
 """)
 
 
-@pytest.mark.parametrize("kind", ["adaptive", "lanes"])
+@pytest.mark.parametrize("kind", ["adaptive", "lanes", "extras"])
 def test_sigterm_stops_every_rollout_thread_and_keeps_the_rows(built, kind, tmp_path):
     """s29: a rollout's C threads went on taking rows after SIGTERM (or Ctrl-C): only the rows in
     flight stopped, and the program's handler ran when every row was done (25 s here on the
     adaptive rows, 9 s on the lanes).  Now no thread takes a row after the signal, the lanes' blocks
     stop at their next step, and the exception carries every row as a RolloutResult, those not run
-    to the end status 9, those never started NaN (0 steps), those finished as they ended."""
+    to the end status 9, those never started NaN (0 steps), those finished as they ended.  The
+    rows with feedback, events or method="auto" (rollout_extras) kept none until s30."""
     script = tmp_path / "child.py"
     script.write_text(ROLLOUT_TERM_CHILD)
-    where = str(built.directory) if kind == "adaptive" else str(tmp_path / "cache")
+    where = str(built.directory) if kind != "lanes" else str(tmp_path / "cache")
     cart = Path(__file__).resolve().parents[2] / "examples" / "cart_pole_system.py"
     proc = subprocess.run([sys.executable, str(script), kind, where, str(cart)], capture_output=True, text=True,
                           timeout=120)
@@ -232,4 +237,4 @@ def test_sigterm_stops_every_rollout_thread_and_keeps_the_rows(built, kind, tmp_
     assert words[:1] == ["terminated"], proc.stdout + proc.stderr
     assert float(words[1]) < 1.0, words              # the whole rollout: 10 s
     n, stopped, other, nan_where_not_run = map(int, words[2:6])
-    assert n == (64 if kind == "adaptive" else 512) and stopped >= 1 and other == 0 and nan_where_not_run, words
+    assert n == (512 if kind == "lanes" else 64) and stopped >= 1 and other == 0 and nan_where_not_run, words
