@@ -90,3 +90,31 @@ def test_a_failed_step_is_named_and_frees_everything(program):
     assert "rhs failed with status 3, EOMC_NONFINITE (a non-finite value appeared), in the step from t=0" \
         in run.stderr
     assert "Sanitizer" not in run.stderr and "leak" not in run.stderr
+
+
+@pytest.mark.parametrize("cc", ["gcc", "clang"])
+def test_name_c_compiles_into_a_program_as_docs_say(tmp_path_factory, cc):
+    """docs/embedding.md (s30): without the library, NAME.c compiles into one's own program with
+    the headers beside it and libm -- clean under -std=c99 -Wall -Wextra -pedantic (-Wno-psabi: gcc's
+    note on the AVX2 helpers' vector arguments) and under ASan/UBSan -- and integrates as the
+    library does.  Here gymnasium's hopper (contacts, limits, 76 parameters) from its qpos0."""
+    if shutil.which(cc) is None:
+        pytest.skip(f"{cc} is not installed")
+    gymnasium = pytest.importorskip("gymnasium")
+    tmp = tmp_path_factory.mktemp(f"embed_src_{cc}")
+    xml = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
+    model = eomc.compile(str(xml), cache_dir=tmp / "cache", output_dir=tmp / "hopper", progress=False)
+    out = tmp / "embed"
+    flags = _SANITIZE.replace("-Werror", "-pedantic -Werror -Wno-psabi").split()
+    build = subprocess.run([cc, *flags, f"-I{tmp / 'hopper'}", '-DMODEL_HEADER="hopper.h"',
+                            "-DMODEL_FN=hopper_model", "-o", str(out), str(EXAMPLE / "main.c"),
+                            str(tmp / "hopper" / "hopper.c"), "-lm"], capture_output=True, text=True, timeout=300)
+    assert build.returncode == 0 and not build.stderr.strip(), build.stderr
+    x0 = np.asarray(model.initial_state, dtype=float)
+    run = subprocess.run([str(out), "1", "0.001", *map(repr, x0.tolist())], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 0 and not run.stderr, run.stderr
+    final = np.array([float(line.split()[1]) for line in run.stdout.splitlines()[1:]])
+    ref = model.simulate(x0, (0.0, 1.0), method="rk4", dt=0.001, t_eval=[1.0]).x_final
+    assert np.max(np.abs(final - x0)) > 0.01          # it moved (falls onto its foot)
+    np.testing.assert_allclose(final, ref, rtol=1e-9, atol=1e-11)
