@@ -133,3 +133,43 @@ def test_bdf_rhs_calls_per_step_match_the_committed_measurement():
     for page in (README, ROOT / "docs" / "contact.md"):
         text = " ".join(page.read_text().split())
         assert said in text and "one or two rhs calls" not in text, (page.name, said)
+
+
+def _python_blocks(path):
+    """Every ```python block of the page."""
+    return [block.split("```", 1)[0] for block in path.read_text().split("```python\n")[1:]]
+
+
+def test_the_python_blocks_of_readme_and_docs_python_run_as_written(tmp_path, monkeypatch):
+    """The Python a SymPy user copies first (s30 first hour): README's "Import: Python" and "Many
+    states" blocks and docs/python.md's, run verbatim in one namespace each, from a directory that
+    holds what they name -- a clone's examples/, `out/` as `eomc build examples/double_pendulum.py
+    -o out` writes it, and `ur5.urdf` (example-robot-data's UR5).  (README's "Derivatives" block
+    has its own test above: it reads an `x` from the first block.)"""
+    import os
+    import numpy as np
+    from eomc.cli import main
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    robots = Path(os.environ.get("EOMC_ROBOTS", "/root/.pyenv/versions/3.11.7/lib/python3.11/site-packages/"
+                                 "cmeel.prefix/share/example-robot-data/robots"))
+    ur5 = robots / "ur_description" / "urdf" / "ur5_robot.urdf"
+    if not ur5.is_file():
+        pytest.skip("example-robot-data's UR5 is not installed")
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "examples").symlink_to(ROOT / "examples")
+    (tmp_path / "ur5.urdf").write_bytes(ur5.read_bytes())
+    assert main(["build", "examples/double_pendulum.py", "-o", "out", "-q"]) == 0
+    readme = {b.split("\n", 1)[0]: b for b in _python_blocks(README)}
+    blocks = [("README.md, Import: Python", readme["import numpy as np"]),
+              ("README.md, Many states", readme["import numpy as np, eomc"]),
+              ("docs/python.md", _python_blocks(ROOT / "docs" / "python.md")[0])]
+    ran = {}
+    for where, block in blocks:
+        ran[where] = namespace = {}
+        exec(compile(block, where, "exec"), namespace)
+    for where in ("README.md, Import: Python", "docs/python.md"):
+        res, built = ran[where]["res"], ran[where]["built"]
+        assert res.status == 0 and np.isfinite(res["q1"]).all() and built.state_names == ("q1", "q2", "u1", "u2")
+    assert ran["docs/python.md"]["robot"].frame("tool0", 0.0, np.zeros(12)).p.shape == (3,)
+    many = ran["README.md, Many states"]["res"]
+    assert many.x.shape == (10_000, 4) and np.all(many.status == 0)
