@@ -173,3 +173,34 @@ def test_the_python_blocks_of_readme_and_docs_python_run_as_written(tmp_path, mo
     assert ran["docs/python.md"]["robot"].frame("tool0", 0.0, np.zeros(12)).p.shape == (3,)
     many = ran["README.md, Many states"]["res"]
     assert many.x.shape == (10_000, 4) and np.all(many.status == 0)
+
+
+def test_rhs_call_ratios_match_derivative_calls_md():
+    """README's derivative costs "in rhs calls ([derivative_calls.md], ...)" mixed two sessions'
+    tables (s30: jac_r 4.8 and jac_p 58 were session 22's G1, superseded by the file's two current
+    runs, 4.55 / 4.41 and 52 / 54; jvp and vjp 3.1 / 3.3 were below its 3.16 / 3.35).  Each range
+    README and docs/derivatives.md state is the file's current tables' range (above its "Session 22"
+    part), rounded half up to the digits stated."""
+    from decimal import ROUND_HALF_UP, Decimal
+    text = (ROOT / "benchmarks" / "results" / "derivative_calls.md").read_text().split("## Session 22", 1)[0]
+    columns = {"jac_x": "jac_x/rhs", "jvp": "jvp/rhs", "vjp": "vjp/rhs", "jac_r": "jac_r/rhs", "jac_p": "jac_p/rhs"}
+    values, head = {k: [] for k in columns}, None
+    for row in text.splitlines():
+        cells = [c.strip() for c in row.strip().strip("|").split("|")]
+        if row.startswith("| model |"):
+            head = cells
+        elif head and row.startswith("| ") and len(cells) == len(head) and cells[0] != "model":
+            for k, col in columns.items():
+                values[k].append(Decimal(cells[head.index(col)]))
+    assert all(len(v) >= 16 for v in values.values()), values       # two runs of 8 rows
+    pages = {README: r"`(jac_x|jvp|vjp|jac_r|jac_p)` ([0-9.]+)-([0-9.]+)",
+             ROOT / "docs" / "derivatives.md": r"\b(jac_x|jvp|vjp|jac_r|jac_p) ([0-9.]+)-([0-9.]+)"}
+    for page, pattern in pages.items():
+        sentence = " ".join(page.read_text().split()).split("derivative_calls.md", 1)[1][:500]
+        said = {m.group(1): (m.group(2), m.group(3)) for m in re.finditer(pattern, sentence)}
+        assert set(said) == set(columns), (page.name, said)
+        for k, (lo, hi) in said.items():
+            got = [min(values[k]), max(values[k])]
+            rounded = [v.quantize(Decimal(s) if "." not in s else Decimal(1).scaleb(-len(s.split(".")[1])),
+                                  rounding=ROUND_HALF_UP) for v, s in zip(got, (lo, hi))]
+            assert [str(r) for r in rounded] == [lo, hi], (page.name, k, lo, hi, got)
