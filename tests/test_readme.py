@@ -146,15 +146,11 @@ def test_the_python_blocks_of_readme_and_docs_python_run_as_written(tmp_path, mo
     holds what they name -- a clone's examples/, `out/` as `eomc build examples/double_pendulum.py
     -o out` writes it, and `ur5.urdf` (example-robot-data's UR5).  (README's "Derivatives" block
     has its own test above: it reads an `x` from the first block.)"""
-    import os
     import numpy as np
     from eomc.cli import main
+    from helpers.robots import robot_path       # example-robot-data, a test dependency: no skip
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
-    robots = Path(os.environ.get("EOMC_ROBOTS", "/root/.pyenv/versions/3.11.7/lib/python3.11/site-packages/"
-                                 "cmeel.prefix/share/example-robot-data/robots"))
-    ur5 = robots / "ur_description" / "urdf" / "ur5_robot.urdf"
-    if not ur5.is_file():
-        pytest.skip("example-robot-data's UR5 is not installed")
+    ur5 = robot_path("ur5")
     monkeypatch.chdir(tmp_path)
     (tmp_path / "examples").symlink_to(ROOT / "examples")
     (tmp_path / "ur5.urdf").write_bytes(ur5.read_bytes())
