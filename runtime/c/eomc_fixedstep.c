@@ -1377,8 +1377,12 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
 void eomc_fs_assemble_lanes(eomc_fs_lanes *w, const double *OUT, const double *U, eomc_fs_request *const *req,
                             double *const *ahead, const double *const *rows, size_t rlo, size_t rhi)
 {
-    for (int g = 0; g < w->lanes; g += w->width)
-        w->kernel(w, OUT + g, U + g, (size_t)w->lanes, req + g, ahead + g, rows ? rows + g : NULL, rlo, rhi);
+    for (int g = 0; g < w->lanes; g += w->width) {
+        int any = 0;                     /* a group no lane of which asks: nothing to answer */
+        for (int l = 0; l < w->width; l++) any |= req[g + l] != NULL;
+        if (any)
+            w->kernel(w, OUT + g, U + g, (size_t)w->lanes, req + g, ahead + g, rows ? rows + g : NULL, rlo, rhi);
+    }
 }
 
 size_t eomc_fs_tested_outputs(int nq, int nu, const eomc_implicit *imp, size_t *idx)

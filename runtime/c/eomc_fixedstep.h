@@ -38,6 +38,12 @@ typedef struct eomc_fs_ops {
      * can (req->done, req->ahead; 0: only out was written, the caller does the rest).  The lanes
      * rollout's (eomc_rollout.c: several rows' steps at once). */
     int (*terms_lu)(void *ctx, double t, const double *x, double *out, eomc_fs_request *req);
+    /* Optional (NULL: fs_assemble here): no model call; out already holds the terms at x, and the
+     * callee gives what req asks for without a ratio (req->du NULL): du1 and v1 for a step of req->h
+     * from x (req->ahead), made with other rows' at once, or nothing (req->ahead 0: the caller
+     * assembles its own).  The lanes rollout's (eomc_rollout.c): a split step's try at another size
+     * than its matrix was made for. */
+    int (*assemble_lu)(void *ctx, const double *x, double *out, eomc_fs_request *req);
 } eomc_fs_ops;
 
 /* Doubles of work eomc_fs_run needs for nx states. */

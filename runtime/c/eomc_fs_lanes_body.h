@@ -325,7 +325,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
     const FSL_V zero = {0}, one = zero + 1.0;
     FSL_V *A = (FSL_V *)w->A, *b = (FSL_V *)w->b, *J = (FSL_V *)w->J, *GJ = (FSL_V *)w->GJ;
     FSL_V h, hh, scale = zero, lim;
-    FSL_VI fail = {0};
+    FSL_VI fail = {0}, act;                          /* act: the lanes asked (req), all ones */
     const fsl_pattern *P = w->dyn ? &w->base : &w->full;
     int nt = 0;
     const int *up;
@@ -334,15 +334,18 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
     for (int l = 0; l < FSL_W; l++) {
         h[l] = req[l] ? req[l]->h : 0.0;
         du[l] = req[l] ? req[l]->du : NULL;
+        act[l] = req[l] ? -1 : 0;
     }
     hh = h * h;
 #define FSL_T(e) (*(const FSL_V *)(OUT + (size_t)(e) * stride))    /* term e in the group's lanes */
 #define FSL_E(x) (rows && (x) >= rlo && (x) < rhi ? FSL_GATHER(rows, (x)) : FSL_T(x))   /* term x: the rows' or OUT's */
-    {   /* the contacts in touch in a lane (depth > 0), and of them the pairs across two branches:
-           their fill (one scan of the depths: the contacts' loop below takes the list) */
+    {   /* the contacts in touch in an asked lane (depth > 0), and of them the pairs across two
+           branches: their fill (one scan of the depths: the contacts' loop below takes the list).
+           A lane not asked is read by no store: its contacts neither add work nor grow the pattern
+           (an assembly pass's other columns, lanes_pass in eomc_rollout.c, are other rows') */
         int nx = 0;
         for (int c = 0; c < imp->ncontact; c++) {
-            const FSL_VI on = FSL_E(L->contact + 25 * (size_t)c) > zero;
+            const FSL_VI on = (FSL_E(L->contact + 25 * (size_t)c) > zero) & act;
             if (!FSL_ANY(&on)) continue;
             w->touch[nt++] = c;
             if (w->cross[c]) w->xon[nx++] = c;
@@ -375,7 +378,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
         memcpy(&u, Uv + (size_t)s * stride, sizeof u);
         d = FSL_SEL(d > zero, d, zero);
         k = FSL_SEL(k > zero, k, zero);
-        m = (d != zero) | (k != zero);
+        m = ((d != zero) | (k != zero)) & act;
         if (FSL_ANY(&m)) {
             FSL_V *a = A + w->diag[s];
             *a = FSL_SEL(m, *a + (h * d + hh * k), *a);
@@ -390,7 +393,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
         FSL_V e[25], G[9], Cs[9], Kv[3];
         const FSL_V *p = e + 1, *vp = e + 4, *K = e + 7, *C = e + 16;
         FSL_VI on, any = {0};
-        on = FSL_E(ce) > zero;
+        on = (FSL_E(ce) > zero) & act;
         if (!FSL_ANY(&on)) continue;                 /* not touching: no force, no slope */
         for (int a = 0; a < 25; a++) e[a] = FSL_E(ce + (size_t)a);
         FSL_SECANT(K, C, Cs);                         /* the lanes off: read by no store */

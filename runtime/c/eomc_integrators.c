@@ -3045,6 +3045,15 @@ static int fs_terms_lu(void *g, double t, const double *x, double *out, eomc_fs_
     return s;
 }
 
+/* A split step's try at another size (eomc_fs_ops.assemble_lu): the implicit's terms_lu with t NaN,
+ * its sign for "no model call: out holds the terms at x" (the lanes rollout's, eomc_rollout.c). */
+static int fs_assemble_lu(void *g, const double *x, double *out, eomc_fs_request *req)
+{
+    ctx *c = ((fs_glue *)g)->c;
+    req->done = req->ahead = 0;
+    return ((fs_glue *)g)->imp->terms_lu(NAN, x, c->p, c->r, out, req, c->mwork);
+}
+
 /* The fast path applies: the model's terms were given, no projection (it needs f at the
  * step's end), no linear feedback (its slope jac_r K is not in the terms), no extra states. */
 static int fs_fast_ok(const ctx *c, const eomc_options *o, const proj *pj)
@@ -3103,7 +3112,7 @@ static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, 
                             double *x, outw *ow, double **pos)
 {
     fs_glue g = {c, pj, ow, o->implicit, -1, NULL, NULL, 0, NULL, 0, 0.0, 0.0, 0.0, 0.0, NAN};
-    eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept, NULL, NULL, 0, 0, NULL};
+    eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept, NULL, NULL, 0, 0, NULL, NULL};
     int fast = fs_fast_ok(c, o, pj), s;
     c->st->watch_lo = c->st->watch_hi = NAN;
     if (o->watch_output > 0 && o->watch_output <= c->m->noutput && c->m->outputs && !c->fb) {
@@ -3118,7 +3127,10 @@ static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, 
     }
     if (fast) {
         ops.terms = fs_terms;
-        if (o->implicit->terms_lu) ops.terms_lu = fs_terms_lu;
+        if (o->implicit->terms_lu) {
+            ops.terms_lu = fs_terms_lu;
+            ops.assemble_lu = fs_assemble_lu;
+        }
         ops.imp = o->implicit;
         ops.nq = c->m->nq;
         ops.nu = c->m->nu;

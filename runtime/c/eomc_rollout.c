@@ -173,6 +173,10 @@ typedef struct fiber {
     const double *x, *p, *r;
     double *out;
     eomc_fs_request *req;  /* lanes_terms_lu: what the row's step asks for (want), NULL: nothing */
+    int asm_req;           /* 1: no model call, an assembly pass over out (lanes_terms_lu with t NaN) */
+    double *wbuf[2];       /* the row's buffers a round wrote last (its T and T1): ... */
+    int wob[2], wcol[2];   /* ... into which batch buffer and column, ... */
+    long wround[2];        /* ... in which round (lanes_sched.round; -1: none) */
     double *ahead;         /* nu + nq: the next try's du and rate (eomc_fs_assemble_lanes) */
     double *pend[2];       /* out buffers (the row's T and T1) holding only the tested outputs of a
                               batch's column yet (NULL: none) ... */
@@ -195,7 +199,9 @@ typedef struct lanes_sched {
     int cur_ob;            /* the batch buffer the last round wrote */
     double *OUTS[2];       /* the batch's outputs, rounds alternating between the two (lanes_rows) */
     double *pad;           /* job->batch_rows: the padding lanes' row (out_len doubles) */
-    double *rowp[64];      /* job->batch_rows: each lane's row in the last round */
+    double *rowp[2][64];   /* job->batch_rows: each lane's row in the last round that wrote OUTS[b] */
+    long round, ob_round[2];   /* rounds made, and the one that wrote OUTS[b] last */
+    int asm_min;           /* lanes_pass: the fewest rows a pass over one batch buffer is made for */
     const size_t *hot, *var;   /* the outputs copied at once (eomc_fs_tested_outputs), and all a ... */
     size_t nhot, nvar;         /* ... call writes (not NAME_implicit_const's: var_outputs) */
 } lanes_sched;
@@ -236,20 +242,25 @@ static int lanes_terms(double t, const double *x, const double *p, const double 
     (void)work;
     f->t = t; f->x = x; f->p = p; f->r = r; f->out = out;
     f->req = NULL;
+    f->asm_req = 0;
     f->state = FIBER_WAITING;
     to_main(s, f, 0);
     return f->result;
 }
 
 /* lanes_terms, and what req asks for (eomc_implicit.terms_lu): made with the other rows of the
- * batch when it holds a whole group of lanes (req->done, req->ahead; else 0). */
+ * batch when it holds a whole group of lanes (req->done, req->ahead; else 0).  t NaN
+ * (eomc_integrators.c's fs_assemble_lu, eomc_fs_ops.assemble_lu): no model call, out holds the
+ * terms at x; the fiber waits for an assembly pass (lanes_pass) with the other rows that wait so. */
 static int lanes_terms_lu(double t, const double *x, const double *p, const double *r, double *out,
                           eomc_fs_request *req, double *work)
 {
     lanes_sched *s = cur_sched;
     fiber *f = &s->f[s->cur];
     (void)work;
-    f->t = t; f->x = x; f->p = p; f->r = r; f->out = out;
+    f->asm_req = isnan(t);
+    if (!f->asm_req) f->t = t;           /* a pass keeps the row's last call time */
+    f->x = x; f->p = p; f->r = r; f->out = out;
     f->req = req;
     req->done = req->ahead = 0;
     f->state = FIBER_WAITING;
@@ -268,6 +279,7 @@ static void fiber_main(void)
         run_row(s->job, f->row, f->work, &s->opt);
         if ((f->row = take_row(s->job)) < 0) break;  /* the job's next row */
         f->pend[0] = f->pend[1] = NULL;              /* the row before's: nothing it needs */
+        f->wround[0] = f->wround[1] = -1;
     }
     f->state = FIBER_DONE;
     to_main(s, f, 1);                    /* not resumed */
@@ -287,7 +299,7 @@ static void resume(lanes_sched *s, int i)
 static int same_call(const lanes_sched *s, int first, int i)
 {
     const fiber *a = &s->f[first], *b = &s->f[i];
-    return b->state == FIBER_WAITING && (!s->job->reads_t || a->t == b->t)
+    return b->state == FIBER_WAITING && !b->asm_req && (!s->job->reads_t || a->t == b->t)
            && (a->p == b->p || s->job->p_stride == 0
                || memcmp(a->p, b->p, (size_t)s->job->m->nparam * sizeof(double)) == 0);
 }
@@ -417,7 +429,7 @@ static void lanes_assemble(lanes_sched *s, const int *idx, int k, const int *ibu
     }
     if (!any) return;
     eomc_fs_assemble_lanes(s->lw, OUT, X + (size_t)s->job->m->nq * L, req, ahead,
-                           s->job->batch_rows ? (const double *const *)s->rowp : NULL, s->job->blk0,
+                           s->job->batch_rows ? (const double *const *)s->rowp[s->cur_ob] : NULL, s->job->blk0,
                            s->job->blk0 + s->job->blkn);
 }
 
@@ -430,6 +442,64 @@ static void lanes_assemble(lanes_sched *s, const int *idx, int k, const int *ibu
  * 1170 of the 13018 calls in 723 scalar rounds of 1-3 rows and 450 padded ones; with rows from one
  * counter only the rollout's last rows run alone. */
 
+/* Row f's buffer out is column c of batch buffer ob, written by this round. */
+static void wrote(const lanes_sched *s, fiber *f, int ob, int c)
+{
+    int w = f->wbuf[0] == f->out ? 0 : f->wbuf[1] == f->out ? 1 : f->wround[0] <= f->wround[1] ? 0 : 1;
+    f->wbuf[w] = f->out;
+    f->wob[w] = ob;
+    f->wcol[w] = c;
+    f->wround[w] = s->round;
+}
+
+/* The k fibers idx[] waiting for an assembly pass (lanes_terms_lu with t NaN: a split step's try at
+ * another size than its matrix was made for), each resumed with its answer (req->ahead), or none
+ * (it assembles its own).  A row whose terms are still a column of a batch buffer (no round wrote
+ * that buffer since: the round before's, or this one's) is answered with the others there, at
+ * least s->asm_min of them, by one eomc_fs_assemble_lanes over that buffer: each in its own column,
+ * as at a model call, so each lane the scalar code's bits; the other columns' rows go along
+ * unasked.  Why over the columns where they are: a prototype that copied each row's terms into
+ * columns first (session 29, rollpy) spent more on the copy than the pass saved, and one that
+ * gathered each lane's terms from its own place (session 30) made the pass dearer than the
+ * rows' own assemblies. */
+static void lanes_pass(lanes_sched *s, double *X, const int *idx, int k)
+{
+    rollout_job *job = s->job;
+    const int L = job->lanes, nq = job->m->nq, nu = job->m->nu;
+    int at[64], n[2] = {0, 0};
+    for (int c = 0; c < k; c++) {                     /* where each row's terms are: ob * L + column */
+        const fiber *q = &s->f[idx[c]];
+        int w = q->wbuf[0] == q->out ? 0 : q->wbuf[1] == q->out ? 1 : -1;
+        at[c] = w >= 0 && q->wround[w] == s->ob_round[q->wob[w]] ? q->wob[w] * L + q->wcol[w] : -1;
+        if (at[c] >= 0) n[at[c] / L]++;
+    }
+    for (int ob = 0; ob < 2; ob++) {
+        eomc_fs_request *req[64];
+        double *ahead[64];
+        if (n[ob] < s->asm_min) continue;
+        for (int c = 0; c < L; c++) {
+            req[c] = NULL;
+            ahead[c] = NULL;
+        }
+        for (int c = 0; c < k; c++) {
+            const fiber *q = &s->f[idx[c]];
+            const int col = at[c] - ob * L;
+            if (at[c] < 0 || at[c] / L != ob) continue;
+            req[col] = q->req;
+            ahead[col] = q->ahead;
+            for (int j = 0; j < nu; j++) X[(size_t)(nq + j) * L + col] = q->x[nq + j];   /* its speeds */
+        }
+        eomc_fs_assemble_lanes(s->lw, s->OUTS[ob], X + (size_t)nq * L, req, ahead,
+                               job->batch_rows ? (const double *const *)s->rowp[ob] : NULL, job->blk0,
+                               job->blk0 + job->blkn);
+    }
+    for (int c = 0; c < k; c++) {
+        s->f[idx[c]].result = EOMC_OK;
+        s->f[idx[c]].asm_req = 0;
+    }
+    for (int c = 0; c < k; c++) resume(s, idx[c]);
+}
+
 /* The thread's fibers (made) each on the job's next row, then each fiber the job's next row when
  * its row ends (take_row); their calls in rounds.  X, R: the batch's input columns (nx, then
  * ninput rows of lanes doubles), ibuf, idx: lanes ints each, mwork: the model's work. */
@@ -440,13 +510,23 @@ static void lanes_run(lanes_sched *s, double *X, double *R, int *ibuf, int *idx,
     const int L = job->lanes, nx = job->m->nx, nr = job->m->ninput;
     for (int i = 0; i < L; i++) {
         f[i].pend[0] = f[i].pend[1] = NULL;
+        f[i].wround[0] = f[i].wround[1] = -1;
         f[i].state = FIBER_DONE;
+        f[i].asm_req = 0;
         f[i].row = take_row(job);
     }
+    s->ob_round[0] = s->ob_round[1] = -2;
     for (int i = 0; i < L; i++)          /* each to its first call, or done */
         if (f[i].row >= 0) resume(s, i);
     for (;;) {
         int first = -1, k = 0, ob;
+        for (int i = 0; i < L; i++)      /* the rows that wait for an assembly first: their pass, then
+                                            their tries' model calls join this round */
+            if (f[i].state == FIBER_WAITING && f[i].asm_req) idx[k++] = i;
+        if (k > 0) {
+            lanes_pass(s, X, idx, k);
+            continue;
+        }
         /* the earliest call first: rows ahead in time wait for the others (a split step's
            sub-steps catch up), so the rows stay in step and the calls fill the lanes */
         for (int i = 0; i < L; i++)
@@ -463,12 +543,14 @@ static void lanes_run(lanes_sched *s, double *X, double *R, int *ibuf, int *idx,
         ob = s->cur_ob ^= 1;
         settle(s, ob);
         if (job->batch_rows) {           /* the pairs' block straight into each row's buffer */
-            for (int c = 0; c < L; c++) s->rowp[c] = c < k ? f[idx[c]].out : s->pad;
-            job->batch_rows(L, f[first].t, X, f[first].p, nr ? R : NULL, s->OUTS[ob], s->rowp, ibuf, mwork);
+            for (int c = 0; c < L; c++) s->rowp[ob][c] = c < k ? f[idx[c]].out : s->pad;
+            job->batch_rows(L, f[first].t, X, f[first].p, nr ? R : NULL, s->OUTS[ob], s->rowp[ob], ibuf, mwork);
         } else
             job->batch(L, f[first].t, X, f[first].p, nr ? R : NULL, s->OUTS[ob], ibuf, mwork);
+        s->ob_round[ob] = ++s->round;
         if (s->lw) lanes_assemble(s, idx, k, ibuf, X, s->OUTS[ob]);
         for (int c = 0; c < k; c++) {
+            wrote(s, &f[idx[c]], ob, c);
             f[idx[c]].result = ibuf[c];
             copy_tested(s, &f[idx[c]], ob, c);
         }
@@ -492,6 +574,10 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
     s.OUTS[1] = s.OUTS[0] + job->out_len * (size_t)L;
     s.hot = hot; s.nhot = nhot; s.var = var; s.nvar = nvar;
     s.pad = pad;
+    {
+        const char *e = getenv("EOMC_LANES_ASM_MIN");
+        s.asm_min = e ? (int)strtol(e, NULL, 10) : 3;
+    }
     s.opt = *job->opt;
     s.imp = *job->opt->implicit;
     s.imp.terms = lanes_terms;
