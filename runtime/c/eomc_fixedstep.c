@@ -1934,6 +1934,21 @@ static int fs_last_cell(fs_fast *q, double t, double h, const double *x, double 
     return EOMC_OK;
 }
 
+/* A try of hs from xs whose matrix is not made for hs (a split step's sub-step, or the whole step
+ * after one): the lanes rollout's answer for it (eomc_fs_ops.assemble_lu: du1 and v1, made with other
+ * rows' such tries at once, each the scalar code's bits), which fs_fast_try takes as it takes an
+ * answer made ahead at a model call; 0: none (not the lanes, too few rows waiting, or its pivot test
+ * failed): the caller assembles A.  Why: these tries' scalar fs_assemble, with the copy of T whole
+ * before it, were ~10-12 % of the ant's and the humanoid's lanes rollouts (perf, 64 rows, session 30). */
+static int fs_assemble_ahead(fs_fast *q, double hs, const double *xs)
+{
+    eomc_fs_request *rq = &q->req;
+    if (!q->ops->assemble_lu) return 0;
+    rq->h = hs; rq->A = q->A; rq->b = q->b; rq->du = NULL;
+    if (q->ops->assemble_lu(q->ops->ctx, xs, q->T, rq) != EOMC_OK) rq->ahead = 0;
+    return rq->ahead;
+}
+
 /* fs_loop's step for the fast path: one step (2), or, with eomc_implicit.split > 0 and
  * where the step's residual ratio (fs_fast_try) is above it, 2, 4 ... MAX_SPLIT equal
  * sub-steps (as fs_advance does for the W-method).  A sub-step is split further only while
@@ -2086,8 +2101,10 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         double ts = t + h * pos / MAX_SPLIT, hs = size == MAX_SPLIT ? h : h * size / MAX_SPLIT, ratio;
         if (q->hA != hs || (q->A == q->bare && !fs_ahead(q, hs))) {
             q->bare = NULL;
-            if ((s = fs_assemble(ops, &q->L, hs, xs + ops->nq, q->T, q->A, q->b, q->GJ, q->cT, &q->vT, &q->pat,
-                                 q->own, &q->start, &q->anc))) {
+            if (fs_assemble_ahead(q, hs, xs)) {
+                q->bare = q->A;         /* the lanes gave this try's du and rate, A unwritten */
+            } else if ((s = fs_assemble(ops, &q->L, hs, xs + ops->nq, q->T, q->A, q->b, q->GJ, q->cT, &q->vT,
+                                        &q->pat, q->own, &q->start, &q->anc))) {
                 q->st->t_fail = ts;
                 return s;
             }
