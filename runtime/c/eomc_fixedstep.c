@@ -2077,7 +2077,24 @@ static int fs_assemble_ahead(fs_fast *q, double hs, const double *xs)
  * dropped: the rest of the step at once after the onset cell (humanoid 64 starts 33200 calls, but
  * 3 rows status 20, walker2d 2) and a walk up by doubling off the grid (humanoid 32857-33325, one
  * lanes row status 20).  A limit's onset is not located: the terms hold its slopes, not its distance
- * to the bound. */
+ * to the bound.
+ *
+ * Session 30 (benchmarks/results/fixedstep.md's notes; the rule in /work/notes/s30/walkback-rule.diff):
+ * traced, 80 % of the humanoid's extra calls are sub-steps taken inside split steps, most of them the walk
+ * back after a located touch-down (qpos0: 74 of 127), at ratios 0.02-0.2 against split 0.5 while the grid
+ * lets a size only double. Measured and not landed: after the onset cell, the next size from each take's
+ * ratio (the size reaching split / 2 if the ratio grows with h, at most 16 times the take's, cut to the
+ * halving grid, never below its doubling), on takes with no regime change (or also with the landed
+ * contacts pressing in). Over 704 starts a model calls fell 0.2-1.3 % (humanoid qpos0 462 -> 438, its T2
+ * 3.61-3.64 -> 3.25-3.26 ms, 1.35-1.37x -> 1.47-1.49x mj_step Euler) with the verdicts within their
+ * spread, but the thrown ball of tests/runtime/test_rollout.py at k x 1e4
+ * (test_implicitfast_rows_get_simulates_energy_verdict) gets a row that penetrates (status 10 at t = 0.785
+ * s; main: status 0) -- a grown sub-step carries the stiff ball deeper than its limit with a passing ratio
+ * -- and G1's drop from a height takes 2-3.5 % more calls at 1-2 ms. Also dropped: the same growth off the
+ * grid, ending on the step's end (a walker2d row failed over 704 starts), and off the grid on every walk
+ * with a target of split (humanoid calls -4.6 %, rows flagged wrong 7 -> 10, the largest rise 10.3 -> 15.3
+ * J, errors against Radau larger).
+ */
 static int fs_fast_advance(void *self, double t, double h, const double *x, double **x1, double **f1,
                            const double **e1)
 {
