@@ -2089,11 +2089,12 @@ static int fs_assemble_ahead(fs_fast *q, double hs, const double *xs)
  * 3.61-3.64 -> 3.25-3.26 ms, 1.35-1.37x -> 1.47-1.49x mj_step Euler) with the verdicts within their
  * spread, but the thrown ball of tests/runtime/test_rollout.py at k x 1e4
  * (test_implicitfast_rows_get_simulates_energy_verdict) gets a row that penetrates (status 10 at t = 0.785
- * s; main: status 0) -- a grown sub-step carries the stiff ball deeper than its limit with a passing ratio
- * -- and G1's drop from a height takes 2-3.5 % more calls at 1-2 ms. Also dropped: the same growth off the
- * grid, ending on the step's end (a walker2d row failed over 704 starts), and off the grid on every walk
- * with a target of split (humanoid calls -4.6 %, rows flagged wrong 7 -> 10, the largest rise 10.3 -> 15.3
- * J, errors against Radau larger).
+ * s; main: status 0; not in a walk: the path parted earlier, and at t = 0.775-0.78 s the ball sinks ~0.8
+ * mm a step through sub-steps the halving rule takes at ratios 0.7-1.3 with no regime change) -- and G1's
+ * drop from a height takes 2-3.5 % more calls at 1-2 ms. Also dropped: the same growth off the grid,
+ * ending on the step's end (a walker2d row failed over 704 starts), and off the grid on every walk with a
+ * target of split (humanoid calls -4.6 %, rows flagged wrong 7 -> 10, the largest rise 10.3 -> 15.3 J,
+ * errors against Radau larger).
  */
 static int fs_fast_advance(void *self, double t, double h, const double *x, double **x1, double **f1,
                            const double **e1)
