@@ -1,7 +1,7 @@
 """Fixed step at each model's MJCF timestep: eomc's implicitfast against MuJoCo's mj_step.
 
     python benchmarks/bench_fixedstep.py [--models hopper,walker2d,ant,humanoid] [--rounds 7]
-        [--orientation euler|quaternion]
+        [--orientation quaternion|euler]
 
 The gymnasium models (hopper, walker2d, ant, humanoid) dropped from their qpos0 with zero
 control, 1 simulated second, at the XML's own timestep, each side with the contacts it reads
@@ -15,9 +15,9 @@ what a control loop runs), method="implicitfast" at dt = timestep.  The contact 
 side's error is against its own reference: eomc against its own Radau at rtol = atol = 1e-9,
 MuJoCo against itself with RK4 at timestep / 16.  Error: max abs over
 the joint coordinates at t = 1 (free joints: the base position; MuJoCo's qpos holds a
-quaternion, eomc body-XYZ angles, so the angles are left out of the error on both sides).
---orientation quaternion: eomc's free and ball joints as MuJoCo's own quaternion
-(MjcfModel(orientation="quaternion"), docs/urdf.md#quaternion-coordinates; the same
+quaternion, eomc the same or body-XYZ angles: the orientation is left out of the error on both sides).
+--orientation euler: eomc's free and ball joints as body-XYZ angles (MjcfModel(orientation=
+"euler")) instead of MuJoCo's own quaternion (the default since session 29; the same
 position-first coordinates, so the same error columns; the gym models only, --robots ""):
 the table is printed, not written (benchmarks/results/quaternion_fixedstep.md quotes both
 orientations' runs).
@@ -44,12 +44,12 @@ def gym_xml(name):
     return Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / f"{name}.xml"
 
 
-def eomc_model(name, cache_dir, functions=None, orientation="euler"):
+def eomc_model(name, cache_dir, functions=None, orientation="quaternion"):
     """The XML as shipped: its ground contacts come from the file (functions: eomc.compile's;
-    orientation: MjcfModel's, the quaternion build named NAME_quat)."""
+    orientation: MjcfModel's, the Euler build named NAME_euler)."""
     import eomc
     from eomc.compiler.mjcf.model import MjcfModel
-    tag = "" if orientation == "euler" else "_quat"
+    tag = "" if orientation == "quaternion" else "_euler"
     return eomc.compile(MjcfModel(gym_xml(name), orientation=orientation), name=f"fs_{name}{tag}",
                         cache_dir=cache_dir, functions=functions)
 
@@ -148,7 +148,7 @@ def cpu_block(call, min_time=0.02):
     return t / n
 
 
-def run_model(name, rounds, cache_dir, log, orientation="euler"):
+def run_model(name, rounds, cache_dir, log, orientation="quaternion"):
     import mujoco
     base = mujoco.MjModel.from_xml_path(str(gym_xml(name)))
     ts = float(base.opt.timestep)
@@ -303,8 +303,8 @@ def main():
     parser.add_argument("--robots", default=",".join(ROBOTS))
     parser.add_argument("--rounds", type=int, default=7)
     parser.add_argument("--cache-dir", default=os.environ.get("EOMC_CACHE_DIR"))
-    parser.add_argument("--orientation", choices=("euler", "quaternion"), default="euler",
-                        help="eomc's free and ball joints: body-XYZ angles (default) or MuJoCo's quaternion")
+    parser.add_argument("--orientation", choices=("euler", "quaternion"), default="quaternion",
+                        help="eomc's free and ball joints: MuJoCo's quaternion (default) or body-XYZ angles")
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
     core = pin_to_one_core()
@@ -329,7 +329,7 @@ def main():
                      f"{r['cpu_ms']:.3f} | {r['ratio']:.2f} | {r['error']:.2e} | {r['ref']} | {r['note']} |")
     text = head + "\n" + (__doc__.split("\n\n", 2)[2]) + "\n\n" + "\n".join(table) + "\n"
     print("\n".join(table))
-    if not args.no_write and args.orientation == "euler":
+    if not args.no_write and args.orientation == "quaternion":
         write_results("fixedstep", text, keep_notes=True)
 
 

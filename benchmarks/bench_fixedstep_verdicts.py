@@ -2,7 +2,7 @@
 
     python benchmarks/bench_fixedstep_verdicts.py [--models hopper,walker2d,ant,humanoid] [--seeds 0-10]
         [--library main=/path/to/_eomc_integrators.so --library branch=-] [--error-rows 16] [--rollout]
-        [--orientation euler,quaternion]
+        [--orientation quaternion,euler]
 
 Why: a change to the fixed step's split rule (runtime/c/eomc_fixedstep.c) changes the paths of chaotic
 runs, and its verdicts (sub-steps left unsolved, energy flags) move by one or two over 64 starts whatever
@@ -24,11 +24,13 @@ max); with --rollout, eomc.rollout's and the lanes rollout's rows with a non-zer
 clean.  Counts are summed over the seeds.  No timing here (bench_fixedstep.py: time per simulated
 second against mj_step).
 
---library NAME=PATH (repeatable): an integrator library (a built runtime/_eomc_integrators*.so, e.g.
-copied from another checkout); PATH "-": the installed one.  Default: the installed one alone.
---orientation euler,quaternion: each library with eomc's free joints as body-XYZ angles and as
-MuJoCo's quaternion (MjcfModel(orientation=...)), a worker process each, from the same starts
-(the unit quaternion for zero angles); default euler alone.
+--library NAME=PATH[=ORIENTATION] (repeatable): an integrator library (a built
+runtime/_eomc_integrators*.so, e.g. copied from another checkout); PATH "-": the installed one;
+ORIENTATION (euler or quaternion): that library's orientation alone, whatever --orientation says
+(e.g. main's Euler default beside a branch's quaternion).  Default: the installed one alone.
+--orientation quaternion,euler: each library with eomc's free joints as MuJoCo's quaternion and
+as body-XYZ angles (MjcfModel(orientation=...)), a worker process each, from the same starts
+(the unit quaternion for zero angles); default quaternion alone (MjcfModel's default).
 """
 import argparse
 import json
@@ -141,17 +143,19 @@ def main():
     parser.add_argument("--library", action="append", default=[], help="NAME=PATH (PATH '-': the installed one)")
     parser.add_argument("--cache-dir", default=os.environ.get("EOMC_CACHE_DIR"))
     parser.add_argument("--no-write", action="store_true")
-    parser.add_argument("--orientation", default="euler", help="euler, quaternion or both (comma-separated)")
+    parser.add_argument("--orientation", default="quaternion", help="quaternion, euler or both (comma-separated)")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
         return worker(args)
-    libraries = [lib.split("=", 1) for lib in args.library] or [["installed", "-"]]
+    libraries = [lib.split("=", 2) for lib in args.library] or [["installed", "-"]]
     orientations = [o for o in args.orientation.split(",") if o]
-    if len(orientations) > 1 or orientations != ["euler"]:       # one column: library, orientation
-        libraries = [[f"{label}, {o}", path, o] for label, path in libraries for o in orientations]
+    pinned = [lib for lib in libraries if len(lib) == 3]
+    if len(orientations) > 1 or orientations != ["quaternion"] or pinned:    # one column: library, orientation
+        libraries = [[f"{lib[0]}, {o}", lib[1], o] for lib in libraries
+                     for o in (lib[2:] if len(lib) == 3 else orientations)]
     else:
-        libraries = [[label, path, "euler"] for label, path in libraries]
+        libraries = [[label, path, "quaternion"] for label, path in libraries]
     results = {}
     for label, path, orientation in libraries:
         cmd = [sys.executable, __file__, "--worker", path, "--models", args.models, "--seeds", args.seeds,

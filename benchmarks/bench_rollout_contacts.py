@@ -37,12 +37,12 @@ stand and sway instead of collapsing limp.  Start: Go2 crouched (thighs 0.9, cal
 lowest sphere 1 mm above the plane, hinge speeds uniform in +-0.5 as for the gym models.
 
     taskset -c 0,1 nice python benchmarks/bench_rollout_contacts.py [--models hopper,ant,humanoid,go2,g1]
-        [--orientation euler|quaternion]
+        [--orientation quaternion|euler]
 
---orientation quaternion: eomc's free joints as MuJoCo's own quaternion (MjcfModel(orientation=
-"quaternion"), docs/urdf.md#quaternion-coordinates), the same starts (the unit quaternion for
-zero angles); the table is printed, not written (benchmarks/results/quaternion_fixedstep.md
-quotes both orientations' runs).
+--orientation euler: eomc's free joints as body-XYZ angles (MjcfModel(orientation="euler"))
+instead of MuJoCo's own quaternion (the default since session 29), the same starts (zero
+angles for the unit quaternion); the table is printed, not written
+(benchmarks/results/quaternion_fixedstep.md quotes both orientations' runs).
 """
 import argparse
 import collections
@@ -124,7 +124,7 @@ def urdf_mjcf(name, out_dir):
     return path, 0.001 - low, pose
 
 
-def _models(name, cache_dir, orientation="euler"):
+def _models(name, cache_dir, orientation="quaternion"):
     """(eomc model, MuJoCo implicitfast, MuJoCo Euler, start height, pose) of one case
     (orientation: eomc's free joints, MjcfModel's)."""
     import mujoco
@@ -145,7 +145,7 @@ def _models(name, cache_dir, orientation="euler"):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         em = eomc.compile(MjcfModel(path, orientation=orientation), cache_dir=cache_dir, functions=_functions(),
-                          name=f"ro_{name}" + ("" if orientation == "euler" else "_quat"))
+                          name=f"ro_{name}" + ("" if orientation == "quaternion" else "_euler"))
     mjm = []
     for integrator in ("IMPLICITFAST", "EULER", "RK4"):
         spec = mujoco.MjSpec.from_file(str(path))
@@ -245,7 +245,7 @@ def _ablated(f, mode):
     return run
 
 
-def _case(name, threads_list, cache_dir, watch_ablation=False, orientation="euler"):
+def _case(name, threads_list, cache_dir, watch_ablation=False, orientation="quaternion"):
     import mujoco
     from mujoco import rollout as mj_rollout
 
@@ -327,8 +327,8 @@ def main():
                         help="also the checked contestants without the energy watch and with it through "
                              "NAME_outputs (what NAME_energy saves)")
     parser.add_argument("--repeat", type=int, default=REPEAT, help="interleaved repeats (medians)")
-    parser.add_argument("--orientation", choices=("euler", "quaternion"), default="euler",
-                        help="eomc's free joints: body-XYZ angles (default) or MuJoCo's quaternion")
+    parser.add_argument("--orientation", choices=("euler", "quaternion"), default="quaternion",
+                        help="eomc's free joints: MuJoCo's quaternion (default) or body-XYZ angles")
     args = parser.parse_args()
     REPEAT = args.repeat
     threads = [1, 2] if len(os.sched_getaffinity(0)) >= 2 else [1]
@@ -350,7 +350,7 @@ def main():
                f"{args.orientation}."]
     ) + "\n" + table + "\n"
     print(table)
-    if not args.no_write and args.orientation == "euler":
+    if not args.no_write and args.orientation == "quaternion":
         write_results("rollout_contacts", text, keep_notes=True)
 
 

@@ -157,10 +157,10 @@ def cases(directory):
             from eomc.compiler.mjcf.model import MjcfModel
             path = Path(directory) / "small.xml"
             path.write_text(_test_attribute("compiler/mjcf/test_mjcf.py", "SMALL"))
-            return MjcfModel(path, orientation=orientation), {}
+            return MjcfModel(path, **({"orientation": orientation} if orientation else {})), {}
         return make
-    out["joints:mjcf_small"] = small_mjcf("euler")
-    out["joints:mjcf_small:quaternion"] = small_mjcf("quaternion")
+    out["joints:mjcf_small"] = small_mjcf(None)          # the default: quaternions (session 29)
+    out["joints:mjcf_small:euler"] = small_mjcf("euler")
 
     def urdf_zoo(**kw):
         def make():

@@ -45,9 +45,10 @@ class MjcfModel:
     # parent-child), self-collisions within one tree included; "trees" = only between different
     # kinematic trees (and the world's geoms) and the file's <pair>s; False = none
     pairs: object = None
-    # how ball and free joints turn: "euler" (body-XYZ angles, singular at pitch +-90 deg) or
-    # "quaternion" (MuJoCo's own (w, x, y, z); the integrators keep it unit)
-    orientation: str = "euler"
+    # how ball and free joints turn: "quaternion" (the default: MuJoCo's own (w, x, y, z), a
+    # MuJoCo user's qpos layout; the integrators keep it unit) or "euler" (body-XYZ angles,
+    # singular at pitch +-90 deg)
+    orientation: str = "quaternion"
 
     def __post_init__(self):
         if self.pairs not in (None, True, False, "trees"):
@@ -66,19 +67,20 @@ def is_mjcf_model(model):
     return isinstance(model, MjcfModel) or is_mjcf_path(model)
 
 
-def with_ignore(model, name=None, ignore=(), limits=True, orientation="euler", pairs=None):
+def with_ignore(model, name=None, ignore=(), limits=True, orientation=None, pairs=None):
     """(model, name) for the driver: an MJCF path with ``ignore`` (the CLI's ``--ignore
     WHAT[,WHAT]``: a string or a sequence), ``limits=False`` (``--limits off``),
-    ``orientation="quaternion"`` (``--orientation quaternion``) or ``pairs`` "trees"/False
+    ``orientation="euler"`` (``--orientation euler``) or ``pairs`` "trees"/False
     (``--pairs trees|none``) becomes an :class:`MjcfModel`; without them the model goes through
-    unchanged."""
+    unchanged (the driver then reads the path as ``MjcfModel(path)``: its defaults decide)."""
     if isinstance(ignore, str):
         ignore = [ignore]
     items = tuple(x.strip() for text in (ignore or ()) for x in text.split(",") if x.strip())
     if items and not is_mjcf_path(model):
         raise ModelError(f"--ignore applies to MuJoCo models (.xml), not to {model}")
-    orientation = orientation or "euler"
-    if not items and ((limits and orientation == "euler" and pairs is None) or not is_mjcf_path(model)):
+    orientation = orientation or MjcfModel.orientation
+    if not items and ((limits and orientation == MjcfModel.orientation and pairs is None)
+                      or not is_mjcf_path(model)):
         return model, name
     _known(items)
     from eomc.compiler.emit.layout import sanitize_name

@@ -34,9 +34,10 @@ def add_robot_arguments(parser):
                              "nothing touches the ground without --ground or --contact (the robot falls "
                              "freely, and simulate, animate and check warn)")
     parser.add_argument("--orientation", choices=("euler", "quaternion"), default=None,
-                        help="how free (and MJCF ball) joints' orientation is written: euler (default; "
-                             "body XYZ angles, singular at pitch +-90 deg) or quaternion (w, x, y, z; no "
-                             "singularity, kept unit by the integrators); URDF with --floating-base")
+                        help="how free (and MJCF ball) joints' orientation is written: quaternion (w, x, "
+                             "y, z as MuJoCo's qpos; no singularity, kept unit by the integrators; the MJCF "
+                             "default) or euler (body XYZ angles, singular at pitch +-90 deg; the URDF "
+                             "--floating-base default)")
     parser.add_argument("--allow-nonphysical-inertia", action="store_true",
                         help="URDF: build moving links whose principal moments are negative (refused "
                              "by default), with a warning naming each")
@@ -507,8 +508,9 @@ def _probe(parent, path, what):
 def _unknown(stem, kind, option, unknown, known):
     """One line: the unknown names, the nearest known ones, and a short list of what there is."""
     import difflib
+    from eomc.runtime.names import euler_hint
     near = sorted({m for n in unknown for m in difflib.get_close_matches(n, known, n=2, cutoff=0.6)})
-    hint = f" (did you mean {', '.join(near)}?)" if near else ""
+    hint = euler_hint(unknown, known) or (f" (did you mean {', '.join(near)}?)" if near else "")
     shown = ", ".join(known[:12]) + (f", ... ({len(known)} in all)" if len(known) > 12 else "")
     return ValueError(f"{stem}: unknown {kind} {', '.join(unknown)} in {option}{hint}; {kind}s: {shown or 'none'}")
 

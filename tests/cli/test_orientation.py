@@ -53,3 +53,41 @@ def test_quaternion_floating_base_simulates_from_upright_with_x0_names(tmp_path,
     assert data[0, 3] == 0.5 and data[0, 4] == 1.0            # the start: upright unless named
     assert np.all(np.abs(np.linalg.norm(data[:, 4:8], axis=1) - 1) < 1e-6)
     assert data[-1, 6] > 0.04                                 # it pitched (qy ≈ sin(wy t / 2))
+
+
+# an MJCF free body: its orientation is MuJoCo's quaternion by default (session 29), body-XYZ
+# angles with --orientation euler
+FLOATER = """<mujoco model="floater"><option gravity="0 0 0"/><worldbody>
+<body name="box" pos="0 0 1"><freejoint name="root"/><geom type="box" size="0.3 0.1 0.05" mass="1"/></body>
+</worldbody></mujoco>"""
+
+
+def test_an_mjcf_free_joint_is_a_quaternion_and_its_euler_names_say_how_to_get_them(tmp_path, monkeypatch,
+                                                                                       capsys):
+    """A script written for the Euler default (--x0 q_root_rx=...) gets one line naming the
+    quaternion's states and --orientation euler, not only the list of names; with --orientation
+    euler the same --x0 runs and the CSV has the angles."""
+    import pytest
+    pytest.importorskip("mujoco")
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    xml = tmp_path / "floater.xml"
+    xml.write_text(FLOATER)
+    out = tmp_path / "f.csv"
+    code = main(["simulate", str(xml), "--t-final", "0.05", "--x0", "q_root_rx=0.1", "-o", str(out), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    assert "q_root_rx: a body-XYZ angle" in err and "q_root_qw, q_root_qx, q_root_qy, q_root_qz" in err
+    assert "--orientation euler" in err and not out.exists()
+    code = main(["simulate", str(xml), "--t-final", "0.05", "--x0", "u_root_wx=1", "-o", str(out), "-q"])
+    assert code == 0, capsys.readouterr().err
+    names = out.read_text().splitlines()[0].split(",")
+    assert names[1:8] == [f"q_root_{c}" for c in ("x", "y", "z", "qw", "qx", "qy", "qz")]
+    code = main(["simulate", str(xml), "--orientation", "euler", "--t-final", "0.05", "--x0", "q_root_rx=0.1",
+                 "-o", str(out), "-q"])
+    assert code == 0, capsys.readouterr().err
+    assert out.read_text().splitlines()[0].split(",")[4:7] == ["q_root_rx", "q_root_ry", "q_root_rz"]
+    # linearize: the quaternion in its tangent chart, 12 states (6 speeds), as the Euler build's
+    assert main(["linearize", str(xml), "-q"]) == 0
+    text = capsys.readouterr().out
+    assert "q_root_rotx" in text and "q_root_qw      " not in text.split("A:")[1]
+    assert text.split("eigenvalues: ")[1].split("\n")[0].count(",") == 11

@@ -12,6 +12,7 @@ mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 from eomc.compiler.contact.geometry import CYLINDER_RIM  # noqa: E402
+from eomc.compiler.mjcf.model import MjcfModel  # noqa: E402
 
 MASS = 2.5
 SHAPES = {   # name: (geom attributes, orientation of the body, points touching at rest, height of the origin)
@@ -44,8 +45,9 @@ def built(tmp_path_factory):
     for name, (geom, euler, _, z) in SHAPES.items():
         path = root / f"{name}.xml"
         path.write_text(_xml(name, geom, euler, z))
-        out[name] = (path, eomc.compile(str(path), functions=("rhs", "outputs"), cache_dir=root / "c",
-                                        progress=False))
+        # orientation="euler": the shapes are posed by body-XYZ angles (q_root_rx, ry, rz)
+        out[name] = (path, eomc.compile(MjcfModel(path, orientation="euler"), name, functions=("rhs", "outputs"),
+                                        cache_dir=root / "c", progress=False))
     return out
 
 
