@@ -192,7 +192,8 @@ def rhs_error(path, model, trials=4, seed=3):
     """max over random states of |eomc - MuJoCo| / max(1, |MuJoCo|) of qacc (and act_dot) for a
     ``model`` built from the MJCF file ``path`` with ``limits=False, geoms=False``: MuJoCo with
     contacts, constraints and limits off (:func:`prepared`), the file's couplings exact
-    (:func:`coupled_qacc`, eomc's states put on them), activations (MuJoCo's ``act``) after q, u."""
+    (:func:`coupled_qacc`, eomc's states put on them), activations (MuJoCo's ``act``) after q, u.
+    The state mapping follows the model's orientation (quaternions when it has any)."""
     import warnings
     import mujoco
     from .model import check_model, load_mjmodel
@@ -201,24 +202,25 @@ def rhs_error(path, model, trials=4, seed=3):
         warnings.simplefilter("ignore")
         m0 = load_mjmodel(path)
         motors = check_model(m0, path)
-        built = tree_ir(m0, actuators=motors, limits=False, friction=False)
+        built = tree_ir(m0, actuators=motors, limits=False, friction=False,
+                        quaternion=bool(getattr(model, "quaternions", ())))
         m = prepared(load_mjmodel(path))
     d = mujoco.MjData(m)
     rng = np.random.default_rng(seed)
-    nq = len(built.coordinates)
+    nq, nv = len(built.coordinates), len(built.speeds)
     loops = getattr(built.tree, "loops", None)
     ndep = loops.n_dependent_coordinates if loops is not None else 0
     acts = [k for k in motors if m.actuator_dyntype[k]]
-    if model.nx != 2 * nq + len(acts):
-        raise ValueError(f"{path}: the model has {model.nx} states, MuJoCo's mapping {2 * nq + len(acts)}")
+    if model.nx != nq + nv + len(acts):
+        raise ValueError(f"{path}: the model has {model.nx} states, MuJoCo's mapping {nq + nv + len(acts)}")
     worst = 0.0
     for _ in range(trials):
-        q, u, z = rng.uniform(-0.8, 0.8, nq), rng.uniform(-1.5, 1.5, nq), rng.uniform(-1, 1, len(acts))
+        q, u, z = rng.uniform(-0.8, 0.8, nq), rng.uniform(-1.5, 1.5, nv), rng.uniform(-1, 1, len(acts))
         x = np.concatenate([q, u, z])
         if ndep:          # on the couplings: the dependent coordinates and speeds from the others
             x = model.consistent_state(x, fixed=list(model.state_names[:nq - ndep]))
-            x[2 * nq:] = z
-            q, u = x[:nq], x[nq:2 * nq]
+            x[nq + nv:] = z
+            q, u = x[:nq], x[nq:nq + nv]
         r = rng.uniform(-1.2, 1.2, len(motors))       # beyond ctrlrange too: both clamp
         xd = model.rhs(0.0, x, r=r) if motors else model.rhs(0.0, x)
         d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
@@ -230,9 +232,9 @@ def rhs_error(path, model, trials=4, seed=3):
         ref = coupled_qacc(m, d)
         if np.max(np.abs(ref)) <= 1e-3:
             raise ValueError(f"{path}: a random state that does not move: the comparison would say nothing")
-        mine = qacc_of(m, built, q, u, xd[nq:2 * nq])
+        mine = qacc_of(m, built, q, u, xd[nq:nq + nv])
         worst = max(worst, np.max(np.abs(mine - ref)) / max(1.0, np.max(np.abs(ref))))
         if acts:
             act_dot = np.array([d.act_dot[m.actuator_actadr[k]] for k in acts])
-            worst = max(worst, np.max(np.abs(xd[2 * nq:] - act_dot)) / max(1.0, np.max(np.abs(act_dot))))
+            worst = max(worst, np.max(np.abs(xd[nq + nv:] - act_dot)) / max(1.0, np.max(np.abs(act_dot))))
     return worst

@@ -3,6 +3,9 @@
 The oracle is MuJoCo itself with contacts, constraints and limits off: qacc at random
 states, eomc's states mapped to MuJoCo's (quaternions for ball/free joints, world-frame
 free-joint velocity; eomc.compiler.mjcf.compare).  Models are built once per module.
+The models whose ball and free joints the oracle maps are built with orientation="euler"
+(body-XYZ angles, the mapping these tests check); the default's quaternions have the same
+tests in test_mjcf_quaternion.py.
 """
 import subprocess
 import sys
@@ -90,7 +93,8 @@ def small(tmp_path_factory):
     root = tmp_path_factory.mktemp("mjcf")
     path = root / "small.xml"
     path.write_text(SMALL)
-    model = eomc.compile(MjcfModel(path, limits=False), cache_dir=root / "cache", progress=False)
+    model = eomc.compile(MjcfModel(path, limits=False, orientation="euler"), cache_dir=root / "cache",
+                         progress=False)
     return path, model
 
 
@@ -207,8 +211,8 @@ def test_gymnasium_model_matches_mj_forward(asset, ignore, tmp_path):
     path = _gym_asset(asset)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
-        model = eomc.compile(MjcfModel(path, ignore=ignore, geoms=False), functions=["rhs"], cache_dir=tmp_path,
-                             progress=False)
+        model = eomc.compile(MjcfModel(path, ignore=ignore, geoms=False, orientation="euler"), functions=["rhs"],
+                             cache_dir=tmp_path, progress=False)
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always", EomcWarning)
         assert _worst(model, path, ignore) < 1e-10

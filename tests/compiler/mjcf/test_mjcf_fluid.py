@@ -35,7 +35,7 @@ def _errors(model, m, nstates=8, scale=2.0):
     is M(q) times its qacc with the fluid less its qacc without (fluid_density = fluid_viscosity
     = 0), against MuJoCo's qfrc_fluid (the fluid's share of qfrc_passive)."""
     m = prepared(m)
-    built = tree_ir(m)
+    built = tree_ir(m, quaternion=bool(model.quaternions))     # the model's state layout (free joints: quaternions)
     d = mujoco.MjData(m)
     rng = np.random.default_rng(4)
     still = dict(zip(model.param_names, model.param_defaults), fluid_density=0.0, fluid_viscosity=0.0)
