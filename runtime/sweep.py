@@ -175,6 +175,8 @@ def _kind(model, key, noun=False, rows=True):
             pass
     hint = ("; whole rows (x0, p, r) are for the Python API (eomc.sweep), a CSV column names one "
             "state, parameter or input" if not rows and str(key) in ROW_KEYS else "")
+    from .names import euler_hint
+    hint = euler_hint([str(key)], model.state_names) + hint
     raise ValueError(f"sweep cases: {key!r} is not a state, parameter or input of {model.name}; "
                      f"states: {', '.join(model.state_names)}; parameters: "
                      f"{', '.join(model.param_names) or 'none'}; inputs: {', '.join(model.input_names) or 'none'}"

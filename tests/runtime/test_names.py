@@ -21,3 +21,17 @@ def test_index_of_finds_names_and_lists_the_valid_ones():
     assert index_of("q1", names, "state", "pend") == 0
     with pytest.raises(ValueError, match=r"pend: unknown state 'q2'; valid names: q1, q1'"):
         index_of(dynamicsymbols("q2"), names, "state", "pend")
+
+
+def test_an_euler_angle_of_a_quaternion_joint_says_how_to_get_it():
+    """MJCF free and ball joints became quaternions by default (session 29): a script's dict x0
+    naming the old body-XYZ angle is told the quaternion's names and orientation="euler"; a name
+    that is no angle of a quaternion joint gets no such sentence."""
+    names = ["q_root_x", "q_root_qw", "q_root_qx", "q_root_qy", "q_root_qz", "q_hip"]
+    with pytest.raises(ValueError, match=r"unknown state 'q_root_ry' \(q_root_ry: a body-XYZ angle; MJCF free and "
+                                         r"ball joints are quaternions by default, q_root_qw, q_root_qx, q_root_qy, "
+                                         r"q_root_qz .*orientation=\"euler\""):
+        index_of("q_root_ry", names, "state", "ant")
+    with pytest.raises(ValueError) as info:
+        index_of("q_hip_rx", names, "state", "ant")
+    assert "body-XYZ" not in str(info.value)
