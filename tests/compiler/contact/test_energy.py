@@ -57,7 +57,7 @@ def test_energy_is_mujocos_plus_the_contacts_elastic_energy(passive):
     path, model = passive
     m = load_mjmodel(path)
     d = mujoco.MjData(m)
-    built = tree_ir(m)
+    built = tree_ir(m, quaternion=bool(model.quaternions))   # the model's orientation
     rng = np.random.default_rng(29)
     p = np.array(model.param_defaults)
     names = model.param_names
@@ -183,16 +183,25 @@ def _elastic(model, p, out):
     return total
 
 
+def _unit(model, x):
+    """x with each quaternion (the MJCF default's free joints) scaled to unit length: a pose."""
+    for w in model.quaternions:
+        x[w:w + 4] /= np.linalg.norm(x[w:w + 4])
+    return x
+
+
 def _states(model, rng, n):
     """Random states, the high ball pushed into the low one in some (pairs in contact)."""
+    names = list(model.state_names)
+    hx, hy, hz = (names.index(f"q_joint1_{a}") for a in "xyz")       # high's free joint
     for j in range(n):
         x = np.array(model.initial_state, dtype=float)
         x[:model.nq] += rng.normal(scale=0.05, size=model.nq)
         if j % 2:
-            x[model.nq - 5] = 0.12 + 0.17 - rng.uniform(0.0, 0.01)    # high's z: the balls overlap
-            x[model.nq - 7:model.nq - 5] = x[0:2]
+            x[hz] = 0.12 + 0.17 - rng.uniform(0.0, 0.01)    # high's z: the balls overlap
+            x[[hx, hy]] = x[0:2]
         x[model.nq:] = rng.normal(size=model.nu)
-        yield x
+        yield _unit(model, x)
 
 
 def test_springs_and_pairs_energy_is_mujocos_plus_the_elastic_energy(paired):
@@ -202,7 +211,7 @@ def test_springs_and_pairs_energy_is_mujocos_plus_the_elastic_energy(paired):
     path, model = paired
     m = load_mjmodel(path)
     d = mujoco.MjData(m)
-    built = tree_ir(m)
+    built = tree_ir(m, quaternion=bool(model.quaternions))   # the model's orientation
     p = np.array(model.param_defaults)
     touched = 0
     for x in _states(model, np.random.default_rng(29), 6):

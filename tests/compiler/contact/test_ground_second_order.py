@@ -134,6 +134,7 @@ def test_exactly_at_the_ground_is_out_of_contact(robot):
     rng = np.random.default_rng(3)
     names = list(robot.state_names)
     x = np.zeros(robot.nx)
+    x[list(robot.quaternions)] = 1.0                # upright (the MJCF default: the quaternion's w)
     x[names.index("q_joint0_z")] = 0.04             # the capsule's radius
     x[names.index("q_j1")] = -0.5                   # the foot lifted
     x[robot.nq:] = 0.1 * rng.normal(size=robot.nu)

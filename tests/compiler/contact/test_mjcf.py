@@ -47,7 +47,7 @@ def test_mjcf_contacts_match_mujoco(hopper):
     assert {"Fn_nose", "Fn_foot", "depth_foot"} <= set(model.output_names)
     m = prepared(load_mjmodel(path))
     d = mujoco.MjData(m)
-    built = tree_ir(m)
+    built = tree_ir(m, quaternion=bool(model.quaternions))   # the model's orientation
     p = dict(zip(model.param_names, model.param_defaults))
     assert p["r_foot"] == 0.03 and p["r_nose"] == 0.02
     nq = model.nq
@@ -56,6 +56,9 @@ def test_mjcf_contacts_match_mujoco(hopper):
     touching = 0
     for trial in range(8):
         q = rng.uniform(-0.3, 0.3, nq)
+        for w in model.quaternions:        # the free joint's quaternion: a tilt of the same size
+            q[w] += 1.0
+            q[w:w + 4] /= np.linalg.norm(q[w:w + 4])
         u = rng.uniform(-1, 1, model.nu)
         d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
         mujoco.mj_kinematics(m, d)

@@ -16,6 +16,7 @@ pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 import eomc.compiler.contact.pairs as pairs  # noqa: E402
+from eomc.compiler.mjcf.model import MjcfModel  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
@@ -42,7 +43,9 @@ def _build(tmp_path, tag, functions=("rhs", "jac_x", "outputs")):
     path.write_text(XML)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return eomc.compile(path, functions=functions, cache_dir=tmp_path / tag,
+        # orientation="euler": _states poses the bodies by body-XYZ angles (X[:, 3:6], X[:, 9:12]),
+        # and the C text asserted (jac_x's sizes 24, 12) is this layout's
+        return eomc.compile(MjcfModel(path, orientation="euler"), functions=functions, cache_dir=tmp_path / tag,
                             progress=False, name="nw")
 
 
@@ -237,6 +240,8 @@ def test_pair_table_on_limbs(tmp_path, monkeypatch):
     rng = np.random.default_rng(5)
     X = rng.normal(scale=0.6, size=(400, called.nx))
     X[:, 2] += 0.3
+    for w in called.quaternions:        # random orientations: each quaternion (the MJCF default) unit
+        X[:, w:w + 4] /= np.linalg.norm(X[:, w:w + 4], axis=1, keepdims=True)
     a, b = called.rhs_many(0.0, X), inline.rhs_many(0.0, X)
     assert np.all(np.isfinite(b))
     assert np.abs(a - b).max() <= 1e-12 * (1 + np.abs(b).max())

@@ -55,7 +55,9 @@ def _build(tmp, kind, functions=("rhs", "jac_x", "outputs")):
     path.write_text(XML.format(name=name, ka=ka, sa=sa, kb=kb, sb=sb))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return eomc.compile(MjcfModel(path), functions=functions, cache_dir=tmp / "c", progress=False)
+        # orientation="euler": the states pose the bodies by body-XYZ angles (x[3:6], x[9:12])
+        return eomc.compile(MjcfModel(path, orientation="euler"), functions=functions, cache_dir=tmp / "c",
+                            progress=False)
 
 
 @pytest.fixture(scope="module", params=sorted(COUNTED))
@@ -180,6 +182,7 @@ def test_box_box_energy_has_no_jump_at_a_face_edge(tmp_path):
         warnings.simplefilter("ignore")
         model = eomc.compile(MjcfModel(path), functions=("outputs",), cache_dir=tmp_path / "c", progress=False)
     x = np.zeros(model.nx)
+    x[list(model.quaternions)] = 1.0        # unturned (the MJCF default: each quaternion's w)
     energy = {}
     for dx in (-1e-6, 1e-6):        # A's +x corners at B's edge x = 0.15 (A's half size 0.1)
         x[0:3] = [0.05 + dx, 0.0, 0.07 + 0.06 - 1e-3]

@@ -17,6 +17,7 @@ import eomc  # noqa: E402
 import eomc.compiler.contact.pairs as pairs  # noqa: E402
 import eomc.compiler.formulations.recursive as recursive  # noqa: E402
 from eomc.compiler.contact.pairs import bounding_radius  # noqa: E402
+from eomc.compiler.mjcf.model import MjcfModel  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
@@ -43,8 +44,9 @@ def _build(tmp_path, tag):
     path.write_text(XML)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return eomc.compile(path, functions=("rhs", "outputs"), cache_dir=tmp_path / tag,
-                            progress=False, name="pg")
+        # orientation="euler": the states pose the bodies by body-XYZ angles (X[:, 6 b + 3:6 b + 6])
+        return eomc.compile(MjcfModel(path, orientation="euler"), functions=("rhs", "outputs"),
+                            cache_dir=tmp_path / tag, progress=False, name="pg")
 
 
 def _functions(tmp_path, tag, function, name="pg"):
@@ -136,8 +138,9 @@ def test_the_implicit_terms_keep_the_pairs_broad_phase(tmp_path, monkeypatch):
     def build(tag):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return eomc.compile(path, functions=("rhs", "outputs", "implicit"), cache_dir=tmp_path / tag,
-                                progress=False, name="pf")
+            # orientation="euler": the states pose the bodies by body-XYZ angles (X[:, 6 b + 3:6 b + 6])
+            return eomc.compile(MjcfModel(path, orientation="euler"), functions=("rhs", "outputs", "implicit"),
+                                cache_dir=tmp_path / tag, progress=False, name="pf")
 
     guarded = build("guarded")
     body = _body(tmp_path, "guarded", "implicit", "pf")

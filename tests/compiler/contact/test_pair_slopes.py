@@ -34,7 +34,10 @@ def limbs(request, tmp_path_factory):
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return eomc.compile(MjcfModel(path, pairs=True), "limbs", functions=("rhs", "outputs", "implicit"),
+            # orientation="euler": _states draws the poses as body-XYZ angles at this layout's
+            # indices (the ball's position q 10-12)
+            return eomc.compile(MjcfModel(path, pairs=True, orientation="euler"), "limbs",
+                                functions=("rhs", "outputs", "implicit"),
                                 cache_dir=path.parent / "cache", progress=False)
     finally:
         pairs.PAIR_TABLE, pairs.TABLE_FROM, pairs.INLINE_SLOPES = saved

@@ -16,7 +16,7 @@ mujoco = pytest.importorskip("mujoco")
 import eomc  # noqa: E402
 from eomc.compiler.contact.pairs import closest_points  # noqa: E402
 from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco  # noqa: E402
-from eomc.compiler.mjcf.model import check_model, load_mjmodel  # noqa: E402
+from eomc.compiler.mjcf.model import MjcfModel, check_model, load_mjmodel  # noqa: E402
 from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.errors import EomcWarning  # noqa: E402
 
@@ -44,7 +44,9 @@ def pairs(tmp_path_factory):
     path.write_text(XML)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
-        model = eomc.compile(path, functions=["rhs"], cache_dir=root / "c", progress=False)
+        # orientation="euler": the states pose the bodies by body-XYZ angles (q[9:12], q[15:18])
+        model = eomc.compile(MjcfModel(path, orientation="euler"), functions=["rhs"], cache_dir=root / "c",
+                             progress=False)
     return path, model
 
 
@@ -221,7 +223,9 @@ def test_pair_outputs_and_events_are_the_law_at_mujocos_nearest_points(tmp_path)
     path.write_text(XML)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
-        model = eomc.compile(path, functions=["rhs", "outputs", "events"], cache_dir=tmp_path / "c", progress=False)
+        # orientation="euler": the states pose the bodies by body-XYZ angles (q[9:12], q[15:18])
+        model = eomc.compile(MjcfModel(path, orientation="euler"), functions=["rhs", "outputs", "events"],
+                             cache_dir=tmp_path / "c", progress=False)
     events = {e["name"] for e in model.metadata["events"]}
     for name in PAIRS:
         assert {f"contact_{name}", f"clip_{name}"} <= events

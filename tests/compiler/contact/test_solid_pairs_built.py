@@ -11,7 +11,7 @@ mujoco = pytest.importorskip("mujoco")
 import eomc  # noqa: E402
 from eomc.compiler.contact.pairs import solid_contact  # noqa: E402
 from eomc.compiler.mjcf.compare import prepared, to_mujoco  # noqa: E402
-from eomc.compiler.mjcf.model import check_model, load_mjmodel  # noqa: E402
+from eomc.compiler.mjcf.model import MjcfModel, check_model, load_mjmodel  # noqa: E402
 from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.errors import EomcWarning  # noqa: E402
 
@@ -34,7 +34,9 @@ def test_generated_depths_are_the_signed_distances(tmp_path):
     path.write_text(XML)
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always")
-        model = eomc.compile(path, functions=["outputs"], cache_dir=tmp_path / "c", progress=False)
+        # orientation="euler": the states pose the bodies by body-XYZ angles (q[6 b + 3:6 b + 6])
+        model = eomc.compile(MjcfModel(path, orientation="euler"), functions=["outputs"], cache_dir=tmp_path / "c",
+                             progress=False)
     assert not [w for w in seen if "no contact" in str(w.message)]
     assert {f"depth_cube__slab_{i}" for i in range(16)} | {"depth_ball__drum"} <= set(model.output_names)
     m = prepared(load_mjmodel(path))

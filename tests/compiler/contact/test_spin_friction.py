@@ -36,6 +36,7 @@ def ball(tmp_path_factory):
 def _resting(model, P, **speeds):
     """The ball at its resting depth (k δ^1.5 = m g: the normal force is m g) with ``speeds``."""
     x = np.zeros(len(model.state_names))
+    x[list(model.quaternions)] = 1.0         # upright (the MJCF default: the quaternion's w)
     x[2] = R - (M * G / P["k_ball"]) ** (2 / 3)
     for name, value in speeds.items():
         x[model.state_names.index(f"u_free_{name}")] = value
@@ -196,6 +197,7 @@ def test_body_body_pair_spins_down_and_mixes_with_the_table(tmp_path, monkeypatc
     assert not any(n.startswith("mut_") and "ga" not in n for n in P)
     S = list(mixed.state_names)
     x = np.zeros(len(S))
+    x[list(mixed.quaternions)] = 1.0         # upright (the MJCF default: each quaternion's w)
     for body, xy in (("a", (0, 0)), ("b", (0.25, 0)), ("c", (0, 0.25))):
         x[S.index(f"q_f{body}_x")], x[S.index(f"q_f{body}_y")] = xy
         x[S.index(f"q_f{body}_z")] = R - (M * G / P[f"k_table__g{body}"]) ** (2 / 3)

@@ -101,6 +101,7 @@ BALL = """<mujoco model="ball">
 
 def test_free_sphere_with_a_radius(monkeypatch, tmp_path):
     from eomc.compiler.mjcf.model import MjcfModel
+    from eomc.compiler.mjcf.treeir import quat_matrix
     path = tmp_path / "ball.xml"
     path.write_text(BALL)
     fast, slow = both(MjcfModel(path), "ball", monkeypatch, tmp_path,
@@ -110,7 +111,13 @@ def test_free_sphere_with_a_radius(monkeypatch, tmp_path):
     states = []
     for z in (0.098, 0.09, 0.5):       # radius 0.1: pressed in, deeper, in the air
         x = np.concatenate([rng.normal(size=fast.nq), 0.2 * rng.normal(size=fast.nu)])
-        x[iz], x[fast.nq + 2] = z, -0.01      # sinking slowly: the damped law does not pull (no clip)
+        x[iz] = z
+        w = fast.quaternions[0]            # a random orientation: the quaternion (the MJCF default) unit
+        x[w:w + 4] /= np.linalg.norm(x[w:w + 4])
+        R = quat_matrix(x[w:w + 4])         # the speeds are the body's: sinking slowly in the world's z
+        v = R @ x[fast.nq:fast.nq + 3]
+        v[2] = -0.01                        # (the damped law does not pull: no clip)
+        x[fast.nq:fast.nq + 3] = R.T @ v
         states.append(x)
     check(fast, slow, states)
     for x in states:        # jac_id: the same kernel and contact terms at given accelerations

@@ -103,6 +103,7 @@ def test_a_floating_mjcf_body_with_armature_loops_over_its_bodies(tmp_path, monk
     assert re.search(r"eb \+= 0\.5 \* an\[\d+ \+ e\] \* ue \* ue;", body)     # the armature's term
     _agree(looped, straight, states=16)
     x = np.zeros(looped.nx)                     # at rest: gravity alone, -sum m g.p
+    x[list(looped.quaternions)] = 1.0           # upright (the MJCF default: the quaternion's w)
     x[2] = 1.2
     assert abs(looped.outputs(0.0, x)["energy"] - straight.outputs(0.0, x)["energy"]) < 1e-12
 

@@ -270,18 +270,21 @@ def _worst_against_mujoco(path, tag, cache, frames, seed):
     (xpos/xmat and mj_jacBody, site_xpos/site_xmat and mj_jacSite, subtree_com/subtree_linvel;
     Jacobian columns mapped: a free joint's linear speeds are world components in MuJoCo)."""
     mujoco = pytest.importorskip("mujoco")
-    from eomc.compiler.mjcf.compare import _xyz_matrix, prepared, to_mujoco
+    from eomc.compiler.mjcf.compare import _rotation, prepared, to_mujoco
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")        # its joint range is not modelled: said, not tested here
         model = eomc.compile(path, tag, functions=["outputs"], cache_dir=cache, progress=False,
                              frames=[name for name, _ in frames] + ["com"])
         m = prepared(mujoco.MjModel.from_xml_path(str(path)))
-    built = __import__("eomc.compiler.mjcf.treeir", fromlist=["tree_ir"]).tree_ir(m)
+    built = __import__("eomc.compiler.mjcf.treeir", fromlist=["tree_ir"]).tree_ir(
+        m, quaternion=bool(model.quaternions))           # the model's orientation
     d = mujoco.MjData(m)
     rng = np.random.default_rng(seed)
     worst = 0.0
     for _ in range(2):
         q, u = rng.uniform(-1, 1, model.nq), rng.normal(size=model.nu)
+        for w in model.quaternions:             # random orientations: each quaternion unit
+            q[w:w + 4] /= np.linalg.norm(q[w:w + 4])
         d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
         mujoco.mj_forward(m, d)
         mujoco.mj_subtreeVel(m, d)
@@ -290,7 +293,7 @@ def _worst_against_mujoco(path, tag, cache, frames, seed):
             a, n = int(m.jnt_dofadr[j]), {0: 6, 1: 3, 2: 1, 3: 1}[kind]
             P[a:a + n, iu:iu + n] = np.eye(n)
             if kind == 0:
-                P[a:a + 3, iu:iu + 3] = _xyz_matrix(*q[iq + 3:iq + 6])
+                P[a:a + 3, iu:iu + 3] = _rotation(built, q, iq + 3)
         x = np.concatenate([q, u])
         for name, kind in frames:
             jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))

@@ -454,8 +454,10 @@ def test_a_ball_joint_below_a_free_root_against_differences(tmp_path):
         # which holds no body–body pair: with its grandparent–grandchild self-pair (in by default
         # since session 11) hess_id differentiates RNEA's trace through the pair table's reverse
         # twin instead (tests/compiler/contact/test_pair_reverse.py), so build it without
-        model = eomc.compile(MjcfModel(path, pairs="trees"), "free_and_ball", functions=["rhs", "jac_id", "hess_id"],
-                             cache_dir=tmp_path / "c", progress=False)
+        # orientation="euler": the kernel asserted (S K^-1, dK/dq) is the body-XYZ angles' change
+        # of coordinates
+        model = eomc.compile(MjcfModel(path, pairs="trees", orientation="euler"), "free_and_ball",
+                             functions=["rhs", "jac_id", "hess_id"], cache_dir=tmp_path / "c", progress=False)
     c = (model.directory / f"{model.name}.c").read_text()
     assert "joint 0: S K^-1 by K^-1's diagonal blocks" in c and "rows q_a: sum_d K^-1[d, a] G[d, .]" in c
     rng, h = np.random.default_rng(3), 1e-5
