@@ -66,14 +66,15 @@ def eomc_run(path, times, cache, rest_qpos):
     model = eomc.compile(path, cache_dir=cache, progress=False)
     res = model.simulate(model.initial_state, (0.0, times[-1]), t_eval=list(times))
     m = load_mjmodel(path)
-    built = tree_ir(m)
+    built = tree_ir(m, quaternion=bool(model.quaternions))      # the model's orientation
     d = mujoco.MjData(m)
+    nq, nu = model.nq, model.nu
     out = []
     for x in res.x:
-        d.qpos[:], d.qvel[:] = to_mujoco(m, built, x[:model.nq], x[model.nq:2 * model.nq])
+        d.qpos[:], d.qvel[:] = to_mujoco(m, built, x[:nq], x[nq:nq + nu])
         out.append((eomc_root_height(path, model, x), float(np.abs(d.qvel).max())))
     q, u = from_mujoco(m, built, rest_qpos, np.zeros(m.nv))
-    x0 = np.concatenate([q, 0 * np.asarray(u), np.zeros(len(model.state_names) - 2 * model.nq)])
+    x0 = np.concatenate([q, 0 * np.asarray(u), np.zeros(len(model.state_names) - nq - nu)])
     again = model.simulate(x0, (0.0, STATICS), t_eval=[STATICS])
     return out, eomc_root_height(path, model, again.x[-1]), res.status
 

@@ -53,20 +53,22 @@ def mujoco_root_height(path, t_final=T):
 
 def eomc_root_height(path, model, x):
     """The root body's height at eomc's state ``x`` (coordinates, then speeds: the state's or a CSV row's
-    order; ``model`` is not read): the state mapped to MuJoCo's and its kinematics."""
+    order; ``model`` gives the orientation of its free and ball joints, None: the MJCF default, as
+    ``eomc sim`` builds it): the state mapped to MuJoCo's and its kinematics."""
     import mujoco
     from eomc.compiler.mjcf.compare import to_mujoco
-    from eomc.compiler.mjcf.model import check_model, load_mjmodel
+    from eomc.compiler.mjcf.model import MjcfModel, check_model, load_mjmodel
     from eomc.compiler.mjcf.treeir import tree_ir
+    quaternion = bool(model.quaternions) if model is not None else MjcfModel.orientation == "quaternion"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m = load_mjmodel(path)
-        built = tree_ir(m, actuators=check_model(m, path))
+        built = tree_ir(m, actuators=check_model(m, path), quaternion=quaternion)
     if m.nbody < 2:
         return float("nan")
     d = mujoco.MjData(m)
-    nq = len(built.coordinates)
-    d.qpos[:], d.qvel[:] = to_mujoco(m, built, x[:nq], x[nq:2 * nq])
+    nq, nu = len(built.coordinates), len(built.speeds)
+    d.qpos[:], d.qvel[:] = to_mujoco(m, built, x[:nq], x[nq:nq + nu])
     mujoco.mj_kinematics(m, d)
     return float(d.xpos[1][2])
 

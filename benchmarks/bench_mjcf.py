@@ -99,8 +99,9 @@ def cold_build(path, name, ignore, tmp):
     return float(proc.stdout.split()[-1]), (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
-def prepared_pair(path, ignore):
-    """(MjModel as timed, MjcfTree, motor ids) -- the oracle's model and eomc's tree of it."""
+def prepared_pair(path, ignore, quaternion=False):
+    """(MjModel as timed, MjcfTree, motor ids) -- the oracle's model and eomc's tree of it
+    (``quaternion``: the built model's orientation, ``bool(model.quaternions)``)."""
     import mujoco  # noqa: F401
     from eomc.compiler.mjcf.compare import prepared
     from eomc.compiler.mjcf.model import check_model, load_mjmodel
@@ -109,7 +110,15 @@ def prepared_pair(path, ignore):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         motors = check_model(m, path, ignore)
-    return m, tree_ir(m, actuators=motors), motors
+    return m, tree_ir(m, actuators=motors, quaternion=quaternion), motors
+
+
+def random_q(model, rng):
+    """Random coordinates in [-1, 1], each quaternion (the MJCF default's) scaled to unit length."""
+    q = rng.uniform(-1, 1, model.nq)
+    for w in model.quaternions:
+        q[w:w + 4] /= np.linalg.norm(q[w:w + 4])
+    return q
 
 
 def max_error(model, m, built, motors, rng, trials=20):
@@ -118,7 +127,7 @@ def max_error(model, m, built, motors, rng, trials=20):
     d, nq = mujoco.MjData(m), model.nq
     worst = 0.0
     for _ in range(trials):
-        q, u = rng.uniform(-1, 1, nq), rng.uniform(-1, 1, model.nx - nq)
+        q, u = random_q(model, rng), rng.uniform(-1, 1, model.nx - nq)
         r = rng.uniform(-1.5, 1.5, len(motors))
         xd = model.rhs(0.0, np.concatenate([q, u]), r=r)
         d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
@@ -149,12 +158,12 @@ def measure(path, name, ignore, tmp, rng):
     model = eomc.load(tmp / f"out_{name}")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        m, built, motors = prepared_pair(path, ignore)
+        m, built, motors = prepared_pair(path, ignore, bool(model.quaternions))
     err = max_error(model, m, built, motors, rng)
     nq, nv = model.nq, model.nx - model.nq
     X, QV = [], []
     for _ in range(NSTATES):
-        q, u = rng.uniform(-1, 1, nq), rng.uniform(-1, 1, nv)
+        q, u = random_q(model, rng), rng.uniform(-1, 1, nv)
         X.append(np.concatenate([q, u]))
         QV.extend(to_mujoco(m, built, q, u))
     _write(tmp / f"{name}.eomc", X, head=model.param_defaults)

@@ -134,7 +134,7 @@ def main():
             free = eomc.load(tmp / f"out_{stem}_free")
             points = sum(1 for k in model.output_names if k.startswith("depth_"))
             m = load_mjmodel(path)
-            built = tree_ir(m)
+            built = tree_ir(m, quaternion=bool(model.quaternions))      # the model's orientation
             states, ncon = contact_states(path, rng)
             X, QV = [], []
             for qpos, qvel in states:

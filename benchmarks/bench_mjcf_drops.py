@@ -203,7 +203,7 @@ def eomc_drop(path, T, cache, pairs=None, rest_qpos=None, fixed_until=None):
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     depths = [k for k in model.output_names if k.startswith("depth_")]
     deep = np.max([res.outputs[k] for k in depths], axis=0) if depths else np.full(len(res.t), -1.0)
-    built = tree_ir(m)
+    built = tree_ir(m, quaternion=bool(model.quaternions))      # the model's orientation
     d = mujoco.MjData(m)
 
     def root_z(x):

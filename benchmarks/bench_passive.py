@@ -61,7 +61,7 @@ class Mapped:
         from eomc.compiler.mjcf.model import load_mjmodel
         from eomc.compiler.mjcf.treeir import tree_ir
         self.m = load_mjmodel(path)
-        self.built, self.model = tree_ir(self.m), model
+        self.built, self.model = tree_ir(self.m, quaternion=bool(model.quaternions)), model   # its orientation
         self.d = mujoco.MjData(self.m)
 
     def qpos(self, x):

@@ -54,14 +54,14 @@ def mujoco_states(path, model, times):
     from eomc.compiler.mjcf.model import load_mjmodel
     from eomc.compiler.mjcf.treeir import tree_ir
     m = load_mjmodel(path)
-    built = tree_ir(m)
+    built = tree_ir(m, quaternion=bool(model.quaternions))      # the model's orientation
     d = mujoco.MjData(m)
     out = []
     for t in times:
         while d.time < t - 1e-9:
             mujoco.mj_step(m, d)
         q, u = from_mujoco(m, built, d.qpos, d.qvel)
-        out.append(np.concatenate([q, u, np.zeros(len(model.state_names) - 2 * model.nq)]))
+        out.append(np.concatenate([q, u, np.zeros(len(model.state_names) - len(q) - len(u))]))
     return out
 
 
