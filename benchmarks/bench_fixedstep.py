@@ -17,7 +17,7 @@ MuJoCo against itself with RK4 at timestep / 16.  Error: max abs over
 the joint coordinates at t = 1 (free joints: the base position; MuJoCo's qpos holds a
 quaternion, eomc the same or body-XYZ angles: the orientation is left out of the error on both sides).
 --orientation euler: eomc's free and ball joints as body-XYZ angles (MjcfModel(orientation=
-"euler")) instead of MuJoCo's own quaternion (the default since session 29; the same
+"euler")) instead of MuJoCo's own quaternion (the default since session 30; the same
 position-first coordinates, so the same error columns; the gym models only, --robots ""):
 the table is printed, not written (benchmarks/results/quaternion_fixedstep.md quotes both
 orientations' runs).

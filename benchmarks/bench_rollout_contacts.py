@@ -40,7 +40,7 @@ lowest sphere 1 mm above the plane, hinge speeds uniform in +-0.5 as for the gym
         [--orientation quaternion|euler]
 
 --orientation euler: eomc's free joints as body-XYZ angles (MjcfModel(orientation="euler"))
-instead of MuJoCo's own quaternion (the default since session 29), the same starts (zero
+instead of MuJoCo's own quaternion (the default since session 30), the same starts (zero
 angles for the unit quaternion); the table is printed, not written
 (benchmarks/results/quaternion_fixedstep.md quotes both orientations' runs).
 """

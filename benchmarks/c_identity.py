@@ -159,7 +159,7 @@ def cases(directory):
             path.write_text(_test_attribute("compiler/mjcf/test_mjcf.py", "SMALL"))
             return MjcfModel(path, **({"orientation": orientation} if orientation else {})), {}
         return make
-    out["joints:mjcf_small"] = small_mjcf(None)          # the default: quaternions (session 29)
+    out["joints:mjcf_small"] = small_mjcf(None)          # the default: quaternions (session 30)
     out["joints:mjcf_small:euler"] = small_mjcf("euler")
 
     def urdf_zoo(**kw):

@@ -36,7 +36,7 @@ _EULER = re.compile(r"^q_(.+)_r([xyz])$")
 def euler_hint(unknown, names):
     """A sentence for unknown state names that are the body-XYZ angles of a joint the model holds
     as a quaternion (q_root_rx where there is q_root_qw): MJCF free and ball joints became
-    quaternions by default in session 29, so a script or --x0 written for the Euler build names
+    quaternions by default in session 30, so a script or --x0 written for the Euler build names
     angles that are no longer there; '' when none is."""
     hit = [u for u in unknown if (m := _EULER.match(str(u))) and f"q_{m.group(1)}_qw" in names]
     if not hit:

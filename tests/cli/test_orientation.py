@@ -55,7 +55,7 @@ def test_quaternion_floating_base_simulates_from_upright_with_x0_names(tmp_path,
     assert data[-1, 6] > 0.04                                 # it pitched (qy ≈ sin(wy t / 2))
 
 
-# an MJCF free body: its orientation is MuJoCo's quaternion by default (session 29), body-XYZ
+# an MJCF free body: its orientation is MuJoCo's quaternion by default (session 30), body-XYZ
 # angles with --orientation euler
 FLOATER = """<mujoco model="floater"><option gravity="0 0 0"/><worldbody>
 <body name="box" pos="0 0 1"><freejoint name="root"/><geom type="box" size="0.3 0.1 0.05" mass="1"/></body>

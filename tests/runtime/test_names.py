@@ -24,7 +24,7 @@ def test_index_of_finds_names_and_lists_the_valid_ones():
 
 
 def test_an_euler_angle_of_a_quaternion_joint_says_how_to_get_it():
-    """MJCF free and ball joints became quaternions by default (session 29): a script's dict x0
+    """MJCF free and ball joints became quaternions by default (session 30): a script's dict x0
     naming the old body-XYZ angle is told the quaternion's names and orientation="euler"; a name
     that is no angle of a quaternion joint gets no such sentence."""
     names = ["q_root_x", "q_root_qw", "q_root_qx", "q_root_qy", "q_root_qz", "q_hip"]
