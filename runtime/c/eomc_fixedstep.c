@@ -542,12 +542,12 @@ static int fs_tree_lu(int n, double *A, const int *start, const int *anc)
         if (!(fabs(dk) > 64 * DBL_EPSILON * scale) || !isfinite(dk)) return 1;
         inv = 1.0 / dk;
         /* Rows four, then two at a time: the rows of one k's ancestors take the same updates from the
-         * same entries of row k (rk[a[y]], loaded once for all of them), and a row's list is at most 12
-         * long on gymnasium's humanoid, so the loop's own work per list bounded it (session 30, helper
-         * humlevers: in the run, rdtsc per factorisation matched the same matrices replayed in a harness,
-         * 0.77 us, no cache misses; replayed, four rows at a time 2158 -> 1664 cycles, two 1768).  Each
-         * entry gets the same operation as one row at a time (a row whose u is 0 is skipped as before,
-         * so the same bits: 0 of the humanoid run's 564 matrices differ). */
+         * same entries of row k (rk[a[y]], loaded once for all of them), and a list is at most 12 long
+         * on gymnasium's humanoid, so the loop's own work per list bounded the factorisation, not memory
+         * (session 30, helper humlevers: rdtsc medians in the run equal the same matrices replayed in a
+         * harness, 2028 vs 2030 ticks).  Measured, rdtsc medians of one factorisation in the T2 run:
+         * humanoid 2380 -> 1910 ticks, G1 5120 -> 3650.  Each entry gets the same operation as one row at
+         * a time (a row whose u is 0 is skipped as before): the same bits. */
         for (; x + 3 < na; x += 4) {
             double *r0 = A + (size_t)a[x] * n, *r1 = A + (size_t)a[x + 1] * n;
             double *r2 = A + (size_t)a[x + 2] * n, *r3 = A + (size_t)a[x + 3] * n;
