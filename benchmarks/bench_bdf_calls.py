@@ -17,10 +17,9 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from common import environment_header, write_results  # noqa: E402
+from common import environment_header, robots_dir, write_results  # noqa: E402
 
-ROBOTS = Path("/root/.pyenv/versions/3.11.7/lib/python3.11/site-packages/cmeel.prefix/share/"
-              "example-robot-data/robots")
+ROBOTS = robots_dir()
 
 
 def cases():

@@ -29,10 +29,9 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from common import environment_header, format_table, median_iqr, parse_args, write_results  # noqa: E402
+from common import environment_header, robots_dir, format_table, median_iqr, parse_args, write_results  # noqa: E402
 
-ROBOTS = Path("/root/.pyenv/versions/3.11.7/lib/python3.11/site-packages/cmeel.prefix/share/"
-              "example-robot-data/robots")
+ROBOTS = robots_dir()
 FEET = {
     "go2": ("go2_description/urdf/go2.urdf", [f"{n}:0,0,0:0.022" for n in ("FL_foot", "FR_foot", "RL_foot", "RR_foot")]),
     "solo12": ("solo_description/robots/solo12.urdf", [f"{n}:0,0,0:0.016" for n in ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")]),

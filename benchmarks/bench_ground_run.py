@@ -29,8 +29,10 @@ import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-ROBOTS = Path("/root/.pyenv/versions/3.11.7/lib/python3.11/site-packages/cmeel.prefix/share/"
-              "example-robot-data/robots")
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import robots_dir  # noqa: E402
+
+ROBOTS = robots_dir()
 FILES = {"solo12": "solo_description/robots/solo12.urdf", "go2": "go2_description/urdf/go2.urdf",
          "g1": "g1_description/urdf/g1_29dof_rev_1_0.urdf"}
 

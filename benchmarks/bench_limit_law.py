@@ -21,7 +21,10 @@ from eomc.compiler.urdf.tree import build_tree
 from eomc.compiler.urdf.treeir import joint_inertias
 from eomc.compiler.tree.joint_laws import scale_gains
 from eomc.runtime.switching import PhysicsWarning
-R = "/root/.pyenv/versions/3.11.7/lib/python3.11/site-packages/cmeel.prefix/share/example-robot-data/robots/"  # example-robot-data
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import robots_dir  # noqa: E402
+R = str(robots_dir()) + "/"  # example-robot-data
 ROBOTS = ["panda_description/urdf/panda.urdf", "panda_description/urdf/panda_collision.urdf",
           "ur_description/urdf/ur3_gripper.urdf", "ur_description/urdf/ur3_joint_limited_robot.urdf",
           "ur_description/urdf/ur3_robot.urdf", "ur_description/urdf/ur5_gripper.urdf",

@@ -12,7 +12,10 @@ import statistics, sys, time
 import sympy as sm
 from eomc.compiler.model.spec import read_model, spec_of
 from eomc.compiler.formulations import select
-URDF = "/root/.pyenv/versions/3.11.7/lib/python3.11/site-packages/cmeel.prefix/share/example-robot-data/robots/so_arm_description/urdf/so101.urdf"
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import robots_dir  # noqa: E402
+URDF = str(robots_dir() / "so_arm_description/urdf/so101.urdf")
 path = sys.argv[1] if len(sys.argv) > 1 else URDF
 read = read_model(path, None, poses=True)
 spec = spec_of(read, formulation="kane")

@@ -296,6 +296,12 @@ def work_precision_figure(panels, path, panel_width=6.5):
     plt.close(fig)
 
 
+def robots_dir():
+    """example-robot-data's robots folder, wherever its wheel is installed (a venv, CI's fresh one):
+    the benchmarks' URDF robots come from there, never from a path of one machine."""
+    return Path(importlib_metadata.distribution("example-robot-data").locate_file("cmeel.prefix/share/example-robot-data/robots"))
+
+
 def compile_pinocchio(source, obj, extra_includes=(), flags=()):
     """Compile a C++ harness ``source`` against Pinocchio header-only (the `pin` and
     `cmeel-eigen` wheels' headers) into ``obj``, with g++ -O2 and ``flags`` (e.g. -mavx2, to
