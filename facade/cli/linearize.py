@@ -111,36 +111,62 @@ def eigenvalue_text(A, columns=None):
     into a linear acceleration: q_rx -> v_y -> q_y), whose zeros LAPACK returns as +-2.4e-7j,
     above that (s29).  So the zero eigenvalue's multiplicity m and largest block k are read
     from the ranks of A, A^2, ... (_zero_blocks), and the m eigenvalues nearest 0 print as 0
-    when they lie within (n eps)^(1/k) |A|, the round-off of a zero in a block of size k."""
+    when they lie within (n eps)^(1/k) |A|, the round-off of a zero in a block of size k.
+
+    A real part below sqrt(eps |A|) that is not one of those zeros (the ranks and LAPACK agreeing)
+    is printed as computed, with a note: diag(-1e-9, ...) printed its slow real mode as 0 (session
+    30's papercut), though the ranks find no zero eigenvalue and a simple eigenvalue is computed to
+    ~eps |A|; only a real part below n eps |A|, the round-off of one product (a centre's 1e-18),
+    prints as 0 there.  Imaginary parts keep the sqrt(eps |A|) rule: a double real eigenvalue in a
+    Jordan block comes back as a pair split by up to that much."""
     A = np.asarray(A, dtype=float)
     eig = np.linalg.eigvals(A) if A.size else np.zeros(0)
     tol = float(np.sqrt(np.finfo(float).eps * max(1.0, np.linalg.norm(A, 1) if A.size else 1.0)))
-    clean = [complex(0.0 if abs(z.real) < tol else z.real, 0.0 if abs(z.imag) < tol else z.imag) for z in eig]
     m, k = _zero_blocks(A)
     block_tol = float((A.shape[0] * np.finfo(float).eps) ** (1.0 / k) * np.linalg.norm(A, 2)) if m else 0.0
     nearest = np.argsort(np.abs(eig))[:m]
     zeros = [i for i in nearest if abs(eig[i]) <= block_tol]
-    if len(zeros) == m:             # the ranks and LAPACK agree: those m are A's zero eigenvalue
+    agree = len(zeros) == m        # the ranks and LAPACK agree: those m are A's zero eigenvalue, no other
+    # a real part below this is round-off of one product; between it and tol a real mode printed as computed
+    # when the ranks and LAPACK agree (else every part below tol prints as 0, as before session 31)
+    floor = min(tol, A.shape[0] * np.finfo(float).eps * max(1.0, np.linalg.norm(A, 1))) if agree and A.size else tol
+    clean = [complex(0.0 if abs(z.real) < floor else z.real, 0.0 if abs(z.imag) < tol else z.imag) for z in eig]
+    if agree:
         for i in zeros:
             clean[i] = 0j
+    slow = sorted({c.real for c in clean if c.real and abs(c.real) < tol}, key=abs)
     rounded = sum(1 for z, c in zip(eig, clean) if z != c)
     text = ", ".join(f"{z.real:.6g}{z.imag:+.6g}j" if z.imag else f"{z.real:.6g}"
                      for z in sorted(clean, key=lambda z: (z.real, z.imag)))
     beyond = max((abs(eig[i]) for i in zeros if abs(eig[i].real) >= tol or abs(eig[i].imag) >= tol),
-                 default=0.0) if len(zeros) == m else 0.0
+                 default=0.0) if agree else 0.0
+    if slow:
+        text += "\n" + textwrap.fill(
+            f"({', '.join(f'{v:.2g}' for v in slow)} {'is' if len(slow) == 1 else 'are'} below {tol:.2g} = "
+            f"sqrt(eps |A|), where a zero eigenvalue's round-off in a Jordan block can lie: numerically "
+            f"indistinguishable from 0 there; the ranks of A, A^2, ... find no zero eigenvalue "
+            f"{'here' if not m else 'beyond the ' + str(m) + ' printed as 0'}, so printed as computed)",
+            width=columns or _terminal_columns(), initial_indent="  ", subsequent_indent="   ",
+            break_on_hyphens=False, break_long_words=False)
     if not rounded:
-        return _wrapped(f"eigenvalues: {text}", columns)
+        return _wrapped_first(f"eigenvalues: {text}", columns)
     if beyond:
         note = (f"({rounded} of them printed as 0: A's zero eigenvalue is {m}-fold, in Jordan blocks of "
                 f"up to size {k} (the ranks of A, A^2, ...), which LAPACK returns within (n eps)^(1/{k}) |A| "
                 f"= {block_tol:.2g} of 0, here up to {beyond:.2g}; other parts within round-off of 0 "
                 f"are below {tol:.2g} = sqrt(eps |A|))")
     else:       # one line, as before s30
-        return (_wrapped(f"eigenvalues: {text}", columns) + f"\n  ({rounded} of them had a real or imaginary "
-                f"part within round-off of 0, below {tol:.2g} = sqrt(eps |A|): printed as 0)")
-    return _wrapped(f"eigenvalues: {text}", columns) + "\n" + textwrap.fill(
+        return (_wrapped_first(f"eigenvalues: {text}", columns) + f"\n  ({rounded} of them had a real or "
+                f"imaginary part within round-off of 0, below {tol:.2g} = sqrt(eps |A|): printed as 0)")
+    return _wrapped_first(f"eigenvalues: {text}", columns) + "\n" + textwrap.fill(
         note, width=columns or _terminal_columns(), initial_indent="  ", subsequent_indent="   ",
         break_on_hyphens=False, break_long_words=False)
+
+
+def _wrapped_first(text, columns=None):
+    """:func:`_wrapped` of the first line (the eigenvalues), the lines after it (a note) as they are."""
+    first, *rest = text.split("\n", 1)
+    return "\n".join([_wrapped(first, columns), *rest])
 
 
 def _zero_blocks(A):

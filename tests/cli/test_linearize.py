@@ -122,3 +122,20 @@ def test_a_wide_matrix_is_printed_in_blocks_of_columns_that_fit():
     assert max(len(line) for line in eig.splitlines()) <= 100 and eig.startswith("eigenvalues: ")
     values = eig.replace("\n  ", " ")[len("eigenvalues: "):].split(",")
     assert len(values) == 36
+
+
+def test_a_slow_real_mode_below_the_round_off_band_prints_as_computed():
+    """A real eigenvalue of -1e-9 (a slow decay, |A| ~ 2) lies below sqrt(eps |A|) = 2.1e-8 and
+    printed as 0, hiding the mode (session 30's papercut); the ranks of A, A^2, ... say A has no zero
+    eigenvalue, so it prints as computed, with a note saying it is within the band where a zero
+    eigenvalue's round-off in a Jordan block lies.  A lightly damped centre keeps its real part
+    likewise; round-off below n eps |A| (1e-18 on a centre) and the Jordan zeros still print as 0."""
+    from eomc.cli.linearize import eigenvalue_text
+
+    text = eigenvalue_text(np.diag([-1e-9, -1e-3, 2.0]), columns=200)
+    assert text.splitlines()[0] == "eigenvalues: -0.001, -1e-09, 2", text
+    note = " ".join(text.split())
+    assert "-1e-09 is below 2.1e-08 = sqrt(eps |A|)" in note and "no zero eigenvalue" in note, note
+    damped = eigenvalue_text(np.array([[-1e-9, 2.0], [-2.0, -1e-9]]), columns=200)
+    assert damped.splitlines()[0] == "eigenvalues: -1e-09-2j, -1e-09+2j", damped
+    assert eigenvalue_text(np.array([[0.0, 2.0], [-2.0, 0.0]]) + 1e-18).splitlines()[0] == "eigenvalues: 0-2j, 0+2j"
