@@ -46,7 +46,9 @@ def configure(parser):
                              "(no -mavx2: for a directory copied to other machines; results are the "
                              "same bits, the machine's build is faster)")
     parser.add_argument("--cache-dir", help="build cache root (default $EOMC_CACHE_DIR or ~/.cache/eomc)")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="print no progress and no summary; warnings (and the note of a start moved "
+                             "into its joints' ranges) and errors still go to stderr")
     from .common import add_frame_argument
     add_frame_argument(parser)
 
@@ -100,7 +102,10 @@ def run(args):
         from eomc.compiler.build.cache import cache_root
         reuse.remember(cache_root(None), key, args.model, model, reads, recorded)
     from .common import _start_note
+    # said under -q too: the note is the CLI's form of the default start's warning (first hour s22)
     _start_note(model, {}, f"{model.name}.json's initial_state; simulate --x0 chooses another")
+    if args.quiet:     # quiet means quiet (session 31): a script's `eomc build -q` wants the files, not the summary
+        return 0
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
     print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "
           f"ninput={model.ninput}) in {model.directory}:")

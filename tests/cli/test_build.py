@@ -12,7 +12,7 @@ def test_build_writes_sources_library_metadata_and_module(tmp_path, capsys):
     model = model_files.write(tmp_path, model_files.CART, "cart")
     out = tmp_path / "out"
     code = main(["build", str(model), "-o", str(out), "--name", "trolley", "--outputs", "rhs,jacobian",
-                 "--cache-dir", str(tmp_path / "cache"), "-q"])
+                 "--cache-dir", str(tmp_path / "cache")])     # no -q: the summary is printed
     assert code == 0
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == sorted(
         ["trolley.c", "trolley.h", "libtrolley.so", "trolley.json", "trolley.py",
@@ -27,6 +27,20 @@ def test_build_writes_sources_library_metadata_and_module(tmp_path, capsys):
     values, functions = json.loads(run.stdout)
     np.testing.assert_allclose(values, model_files.cart_rhs(np.array([0.1, 0.4, 0.3, -0.2]), 1.5), rtol=1e-12)
     assert set(functions) == {"rhs", "jac_x"}
+
+
+def test_quiet_build_prints_nothing_and_errors_still_show(tmp_path, capsys):
+    """-q: nothing on stdout or stderr on success (it printed the summary and the file list: quiet
+    means quiet); a failure still says what failed (and warnings and the moved start's note still
+    show: test_first_hour's test_build_says_the_moved_start_as_a_cli_note)."""
+    model = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    assert main(["build", str(model), "-o", str(tmp_path / "o"), "--cache-dir", str(tmp_path / "c"), "-q"]) == 0
+    printed = capsys.readouterr()
+    assert (printed.out, printed.err) == ("", "")
+    assert (tmp_path / "o" / "pend.json").is_file()
+    assert main(["build", str(tmp_path / "nope.py"), "-o", str(tmp_path / "o2"), "-q"]) == 1
+    printed = capsys.readouterr()
+    assert printed.out == "" and "nope.py: cannot read model file" in printed.err
 
 
 def test_header_declares_the_model_entry_point(tmp_path):
@@ -85,7 +99,7 @@ def test_build_target_f32_writes_float_c_with_its_stack_and_a_float_module(tmp_p
     model = model_files.write(tmp_path, model_files.CART, "cart")
     out = tmp_path / "out32"
     code = main(["build", str(model), "-o", str(out), "--name", "trolley32", "--target", "c99-f32",
-                 "--cache-dir", str(tmp_path / "cache"), "-q"])
+                 "--cache-dir", str(tmp_path / "cache")])     # no -q: the summary (its stack line) is printed
     assert code == 0
     printed = capsys.readouterr().out
     assert "stack (bytes, worst case over the calls inside trolley32.c): " in printed and "rhs " in printed

@@ -267,7 +267,7 @@ def test_simulate_and_build_run_with_no_flags(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     assert main(["simulate", str(model), "-q"]) == 0
     assert re.search(r"^pend: \S+ t=\[0, 10\]: ", capsys.readouterr().out, re.M)
-    assert main(["build", str(model), "-q"]) == 0
+    assert main(["build", str(model)]) == 0            # no -q: the summary is read
     assert f"in {tmp_path / 'pend'}:" in capsys.readouterr().out
     assert (tmp_path / "pend" / "pend.h").is_file() and (tmp_path / "pend" / "pend.json").is_file()
 

@@ -50,7 +50,7 @@ def _ignoring(argv):
 
 def test_build_and_inspect_with_ignore(arm, tmp_path, capsys):
     out = tmp_path / "out"
-    assert _ignoring(["build", str(arm), "-o", str(out), "--ignore", "tendons,limits", "-q"]) == 0
+    assert _ignoring(["build", str(arm), "-o", str(out), "--ignore", "tendons,limits"]) == 0    # no -q: the summary
     assert (out / "arm.c").is_file() and (out / "libarm.so").is_file()
     assert "built model 'arm' (nq=2, nu=2" in capsys.readouterr().out
     assert _ignoring(["inspect", str(arm), "--ignore", "tendons", "--ignore", "limits", "-q"]) == 0

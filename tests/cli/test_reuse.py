@@ -94,7 +94,7 @@ def test_the_second_run_imports_no_sympy(tmp_path):
 BUILD_RUN = """
 import sys
 from eomc.cli import main
-code = main(["build", sys.argv[1], "-q", "-o", sys.argv[2]])
+code = main(["build", sys.argv[1], "-o", sys.argv[2]])     # no -q: the summary is read
 print(code, 'sympy' in sys.modules)
 """
 
@@ -317,7 +317,7 @@ def test_eomc_build_after_simulate_reuses_what_simulate_built(counted, tmp_path,
         _built(counted, tmp_path, [arm, *extra], tmp_path / "1.csv")
         counted.update({k: 0 for k in counted})
         out = tmp_path / ("plain" + "".join(extra))
-        assert main(["build", str(arm), *extra, "-q", "-o", str(out)]) == 0
+        assert main(["build", str(arm), *extra, "-o", str(out)]) == 0     # no -q: the summary is read
         assert counted == {"read": 0, "derive": 0, "compile C": 0}, (extra, counted)
         assert (out / "arm.json").is_file() and (out / "arm.py").is_file()
         assert "built model 'arm'" in capsys.readouterr().out

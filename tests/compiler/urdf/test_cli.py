@@ -18,7 +18,7 @@ def _eomc(*args, cache):
 def built(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("cli")
     cache, out = tmp / "cache", tmp / "ur5"
-    result = _eomc("build", robot_path("ur5"), "-o", out, "-q", cache=cache)   # every function
+    result = _eomc("build", robot_path("ur5"), "-o", out, cache=cache)   # every function; no -q: the summary is read
     assert result.returncode == 0, result.stderr
     return out, cache, result.stdout
 
