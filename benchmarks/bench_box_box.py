@@ -101,9 +101,8 @@ def timed(fn):
 
 def main():
     import mujoco
-    from eomc.compiler.mjcf.compare import to_mujoco
+    from eomc.compiler.mjcf.compare import to_mujoco, tree_of
     from eomc.compiler.mjcf.model import check_model, load_mjmodel
-    from eomc.compiler.mjcf.treeir import tree_ir
     os.sched_setaffinity(0, {CORE})
     rows, runs = [], []
     with tempfile.TemporaryDirectory(prefix="bench_box_box_") as tmp:
@@ -120,7 +119,7 @@ def main():
         d = mujoco.MjData(mm)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            tree = tree_ir(mm, actuators=check_model(mm, stacker()))
+            tree = tree_of(mm, ms["new"], actuators=check_model(mm, stacker()))   # its layout (quaternions)
         for label, S in (("stacked", X), ("near, apart", near), ("far apart", far)):
             st = [to_mujoco(mm, tree, x[:nq], x[nq:]) for x in S]
 

@@ -60,13 +60,12 @@ def eomc_run(path, times, cache, rest_qpos):
     """[(root z, max |qvel|)] of eomc's default run at each time, and the statics height."""
     import mujoco
     import eomc
-    from eomc.compiler.mjcf.compare import from_mujoco, to_mujoco
+    from eomc.compiler.mjcf.compare import from_mujoco, to_mujoco, tree_of
     from eomc.compiler.mjcf.model import load_mjmodel
-    from eomc.compiler.mjcf.treeir import tree_ir
     model = eomc.compile(path, cache_dir=cache, progress=False)
     res = model.simulate(model.initial_state, (0.0, times[-1]), t_eval=list(times))
     m = load_mjmodel(path)
-    built = tree_ir(m, quaternion=bool(model.quaternions))      # the model's orientation
+    built = tree_of(m, model)
     d = mujoco.MjData(m)
     nq, nu = model.nq, model.nu
     out = []

@@ -56,14 +56,12 @@ def eomc_root_height(path, model, x):
     order; ``model`` gives the orientation of its free and ball joints, None: the MJCF default, as
     ``eomc sim`` builds it): the state mapped to MuJoCo's and its kinematics."""
     import mujoco
-    from eomc.compiler.mjcf.compare import to_mujoco
+    from eomc.compiler.mjcf.compare import to_mujoco, tree_of
     from eomc.compiler.mjcf.model import MjcfModel, check_model, load_mjmodel
-    from eomc.compiler.mjcf.treeir import tree_ir
-    quaternion = bool(model.quaternions) if model is not None else MjcfModel.orientation == "quaternion"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m = load_mjmodel(path)
-        built = tree_ir(m, actuators=check_model(m, path), quaternion=quaternion)
+        built = tree_of(m, model if model is not None else MjcfModel(path), actuators=check_model(m, path))
     if m.nbody < 2:
         return float("nan")
     d = mujoco.MjData(m)

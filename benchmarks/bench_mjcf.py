@@ -99,18 +99,17 @@ def cold_build(path, name, ignore, tmp):
     return float(proc.stdout.split()[-1]), (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
-def prepared_pair(path, ignore, quaternion=False):
-    """(MjModel as timed, MjcfTree, motor ids) -- the oracle's model and eomc's tree of it
-    (``quaternion``: the built model's orientation, ``bool(model.quaternions)``)."""
+def prepared_pair(path, ignore, model):
+    """(MjModel as timed, MjcfTree, motor ids) -- the oracle's model and eomc's tree of it in the
+    built ``model``'s state layout (compare.tree_of)."""
     import mujoco  # noqa: F401
-    from eomc.compiler.mjcf.compare import prepared
+    from eomc.compiler.mjcf.compare import prepared, tree_of
     from eomc.compiler.mjcf.model import check_model, load_mjmodel
-    from eomc.compiler.mjcf.treeir import tree_ir
     m = prepared(load_mjmodel(path))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         motors = check_model(m, path, ignore)
-    return m, tree_ir(m, actuators=motors, quaternion=quaternion), motors
+    return m, tree_of(m, model, actuators=motors), motors
 
 
 def random_q(model, rng):
@@ -158,7 +157,7 @@ def measure(path, name, ignore, tmp, rng):
     model = eomc.load(tmp / f"out_{name}")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        m, built, motors = prepared_pair(path, ignore, bool(model.quaternions))
+        m, built, motors = prepared_pair(path, ignore, model)
     err = max_error(model, m, built, motors, rng)
     nq, nv = model.nq, model.nx - model.nq
     X, QV = [], []

@@ -102,9 +102,8 @@ def main():
     import eomc
     import gymnasium
     import mujoco
-    from eomc.compiler.mjcf.compare import from_mujoco
+    from eomc.compiler.mjcf.compare import from_mujoco, tree_of
     from eomc.compiler.mjcf.model import load_mjmodel
-    from eomc.compiler.mjcf.treeir import tree_ir
     folder = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
     os.sched_setaffinity(0, {CORE})
     rng = np.random.default_rng(33)
@@ -134,7 +133,7 @@ def main():
             free = eomc.load(tmp / f"out_{stem}_free")
             points = sum(1 for k in model.output_names if k.startswith("depth_"))
             m = load_mjmodel(path)
-            built = tree_ir(m, quaternion=bool(model.quaternions))      # the model's orientation
+            built = tree_of(m, model)
             states, ncon = contact_states(path, rng)
             X, QV = [], []
             for qpos, qvel in states:

@@ -185,9 +185,8 @@ def eomc_drop(path, T, cache, pairs=None, rest_qpos=None, fixed_until=None):
     import eomc
     from eomc.compiler.mjcf import MjcfModel
     import mujoco
-    from eomc.compiler.mjcf.compare import to_mujoco
+    from eomc.compiler.mjcf.compare import to_mujoco, tree_of
     from eomc.compiler.mjcf.model import load_mjmodel
-    from eomc.compiler.mjcf.treeir import tree_ir
     # with the events function, as eomc.compile builds by default: the contacts' touch-downs are
     # the switching functions that end radau's steps at the onset; without it a grown free-fall
     # step carried half_cheetah's foot 80 mm into the floor (and the damping held it there)
@@ -203,7 +202,7 @@ def eomc_drop(path, T, cache, pairs=None, rest_qpos=None, fixed_until=None):
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     depths = [k for k in model.output_names if k.startswith("depth_")]
     deep = np.max([res.outputs[k] for k in depths], axis=0) if depths else np.full(len(res.t), -1.0)
-    built = tree_ir(m, quaternion=bool(model.quaternions))      # the model's orientation
+    built = tree_of(m, model)
     d = mujoco.MjData(m)
 
     def root_z(x):

@@ -59,9 +59,9 @@ class Mapped:
     def __init__(self, path, model):
         import mujoco
         from eomc.compiler.mjcf.model import load_mjmodel
-        from eomc.compiler.mjcf.treeir import tree_ir
+        from eomc.compiler.mjcf.compare import tree_of
         self.m = load_mjmodel(path)
-        self.built, self.model = tree_ir(self.m, quaternion=bool(model.quaternions)), model   # its orientation
+        self.built, self.model = tree_of(self.m, model), model
         self.d = mujoco.MjData(self.m)
 
     def qpos(self, x):

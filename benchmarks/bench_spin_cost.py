@@ -50,11 +50,10 @@ def build(path, cache, prelude):
 
 def mujoco_states(path, model, times):
     import mujoco
-    from eomc.compiler.mjcf.compare import from_mujoco
+    from eomc.compiler.mjcf.compare import from_mujoco, tree_of
     from eomc.compiler.mjcf.model import load_mjmodel
-    from eomc.compiler.mjcf.treeir import tree_ir
     m = load_mjmodel(path)
-    built = tree_ir(m, quaternion=bool(model.quaternions))      # the model's orientation
+    built = tree_of(m, model)
     d = mujoco.MjData(m)
     out = []
     for t in times:

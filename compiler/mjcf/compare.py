@@ -13,7 +13,7 @@ import numpy as np
 
 from .treeir import MjcfTree
 
-__all__ = ["to_mujoco", "from_mujoco", "qacc_of", "prepared", "coupled_qacc", "rhs_error"]
+__all__ = ["tree_of", "to_mujoco", "from_mujoco", "qacc_of", "prepared", "coupled_qacc", "rhs_error"]
 
 
 def _xyz_matrix(rx, ry, rz):
@@ -53,8 +53,40 @@ def _rotation(built, q, iq):
     return _xyz_matrix(*q[iq:iq + 3])
 
 
+def tree_of(m, model, **kwargs):
+    """:func:`~.treeir.tree_ir` of the compiled MuJoCo model ``m`` in ``model``'s state layout, the
+    tree the functions here map states with: ``model`` a built eomc model (quaternions where it has
+    any: its ``quaternions``) or an :class:`~.model.MjcfModel` (its ``orientation``); ``kwargs``
+    are tree_ir's (``actuators``, ``limits``, ``friction``: they do not change the layout).
+
+    Why: eomc.compile builds MJCF ball and free joints as quaternions by default (session 30),
+    while tree_ir's own default is body-XYZ angles; an oracle that built its own tree in the other
+    layout mapped the states wrongly and silently (a root body's position still came out right)."""
+    from .treeir import tree_ir
+    if hasattr(model, "orientation"):
+        quaternion = model.orientation == "quaternion"
+    else:
+        quaternion = bool(getattr(model, "quaternions", ()))
+    built = tree_ir(m, quaternion=quaternion, **kwargs)
+    nq = getattr(model, "nq", None)
+    if nq is not None and nq != len(built.coordinates):
+        raise ValueError(f"the model has {nq} coordinates, MuJoCo's tree in its layout {len(built.coordinates)}: "
+                         f"not a build of this MuJoCo model")
+    return built
+
+
+def _layout(built, q):
+    """``q``'s length checked against the tree's coordinates: a tree in the other orientation
+    (angles for a quaternion build, or the reverse) would map every state wrongly."""
+    if len(q) != len(built.coordinates):
+        kind = "quaternions" if getattr(built.tree, "quaternions", ()) else "body-XYZ angles"
+        raise ValueError(f"{len(q)} coordinates given, the tree has {len(built.coordinates)} (ball and free "
+                         f"joints as {kind}): build the tree in the model's layout, tree_of(m, model)")
+
+
 def to_mujoco(m, built: MjcfTree, q, u):
-    """(qpos, qvel) of eomc's coordinates ``q`` and speeds ``u``."""
+    """(qpos, qvel) of eomc's coordinates ``q`` and speeds ``u`` (``built``: :func:`tree_of` the model)."""
+    _layout(built, q)
     qpos, qvel = np.array(m.qpos0, dtype=float), np.zeros(m.nv)
     for j, kind, iq, iu in built.joints:
         a, d = int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j])
@@ -101,6 +133,7 @@ def from_mujoco(m, built: MjcfTree, qpos, qvel):
 
 def qacc_of(m, built: MjcfTree, q, u, du):
     """MuJoCo's qacc for eomc's state (q, u) and speed derivatives ``du``."""
+    _layout(built, q)
     qacc = np.zeros(m.nv)
     for j, kind, iq, iu in built.joints:
         d = int(m.jnt_dofadr[j])
@@ -197,13 +230,11 @@ def rhs_error(path, model, trials=4, seed=3):
     import warnings
     import mujoco
     from .model import check_model, load_mjmodel
-    from .treeir import tree_ir
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m0 = load_mjmodel(path)
         motors = check_model(m0, path)
-        built = tree_ir(m0, actuators=motors, limits=False, friction=False,
-                        quaternion=bool(getattr(model, "quaternions", ())))
+        built = tree_of(m0, model, actuators=motors, limits=False, friction=False)
         m = prepared(load_mjmodel(path))
     d = mujoco.MjData(m)
     rng = np.random.default_rng(seed)

@@ -13,9 +13,8 @@ import pytest
 mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
-from eomc.compiler.mjcf.compare import prepared, to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import prepared, to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import MjcfModel, load_mjmodel  # noqa: E402
-from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 
 TUMBLER = """<mujoco model="qtumbler">
   <option gravity="0 0 0"/>
@@ -49,7 +48,7 @@ def test_a_tumbling_quaternion_model_is_drawn_where_mujoco_places_it(tmp_path):
     assert res.status == 0
     anim = res.animate(fps=20)
     m = prepared(load_mjmodel(path))
-    d, tree = mujoco.MjData(m), tree_ir(m, quaternion=True)
+    d, tree = mujoco.MjData(m), tree_of(m, model)
     pitched = 0.0
     for i, x in enumerate(res.x):
         d.qpos[:], d.qvel[:] = to_mujoco(m, tree, x[:model.nq], x[model.nq:])

@@ -14,9 +14,8 @@ import pytest
 mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
-from eomc.compiler.mjcf.compare import from_mujoco, prepared  # noqa: E402
+from eomc.compiler.mjcf.compare import from_mujoco, prepared, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import MjcfModel, check_model, load_mjmodel  # noqa: E402
-from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.errors import EomcWarning  # noqa: E402
 from eomc.runtime.tangent import _left, linearize_tangent, tangent_chart  # noqa: E402
 
@@ -119,8 +118,8 @@ def test_the_chart_has_the_euler_builds_eigenvalues_at_rest(small):
                 q = rng.normal(size=4)
                 qpos[a + off:a + off + 4] = q / np.linalg.norm(q)
         spectra = []
-        for orientation, model in (("quaternion", built["quaternion"]), ("euler", built["euler"])):
-            tree = tree_ir(m, actuators=motors, quaternion=orientation == "quaternion")
+        for model in (built["quaternion"], built["euler"]):
+            tree = tree_of(m, model, actuators=motors)
             q, u = from_mujoco(m, tree, qpos, np.zeros(m.nv))
             A = linearize_tangent(model, 0.0, np.concatenate([q, u])).A
             assert A.shape == (2 * m.nv, 2 * m.nv)

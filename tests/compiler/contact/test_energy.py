@@ -13,9 +13,8 @@ mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 from eomc.compiler.mjcf import MjcfModel  # noqa: E402
-from eomc.compiler.mjcf.compare import to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import load_mjmodel  # noqa: E402
-from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.switching import STATUS_ENERGY, PhysicsWarning, contact_parameter  # noqa: E402
 from helpers.params import undamped  # noqa: E402
 
@@ -57,7 +56,7 @@ def test_energy_is_mujocos_plus_the_contacts_elastic_energy(passive):
     path, model = passive
     m = load_mjmodel(path)
     d = mujoco.MjData(m)
-    built = tree_ir(m, quaternion=bool(model.quaternions))   # the model's orientation
+    built = tree_of(m, model)
     rng = np.random.default_rng(29)
     p = np.array(model.param_defaults)
     names = model.param_names
@@ -211,7 +210,7 @@ def test_springs_and_pairs_energy_is_mujocos_plus_the_elastic_energy(paired):
     path, model = paired
     m = load_mjmodel(path)
     d = mujoco.MjData(m)
-    built = tree_ir(m, quaternion=bool(model.quaternions))   # the model's orientation
+    built = tree_of(m, model)
     p = np.array(model.param_defaults)
     touched = 0
     for x in _states(model, np.random.default_rng(29), 6):

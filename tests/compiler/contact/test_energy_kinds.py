@@ -18,9 +18,8 @@ mujoco = pytest.importorskip("mujoco")
 import eomc  # noqa: E402
 from eomc.compiler.contact.tree import energy_blockers  # noqa: E402
 from eomc.compiler.mjcf import MjcfModel  # noqa: E402
-from eomc.compiler.mjcf.compare import to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import load_mjmodel, read_model  # noqa: E402
-from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.switching import STATUS_ENERGY, PhysicsWarning  # noqa: E402
 from helpers.params import params_with  # noqa: E402
 
@@ -74,7 +73,7 @@ def test_energy_is_mujocos_plus_the_servos_springs(servo):
     assert "energy" in model.output_names and "servos' bias" in model.metadata["energy"]
     m = load_mjmodel(path)
     d = mujoco.MjData(m)
-    built = tree_ir(m)
+    built = tree_of(m, model)
     rng = np.random.default_rng(17)
     for _ in range(6):
         x = rng.normal(scale=1.0, size=model.nx)

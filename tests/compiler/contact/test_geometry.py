@@ -100,9 +100,8 @@ def test_deepest_point_is_mujocos_distance(built, name):
         zc = rng.uniform(-0.05, 0.3)
         x = _state(model, {"q_root_z": zc, "q_root_rx": angles[0], "q_root_ry": angles[1],
                            "q_root_rz": angles[2]})
-        from eomc.compiler.mjcf.compare import to_mujoco
-        from eomc.compiler.mjcf.treeir import tree_ir
-        d.qpos[:], d.qvel[:] = to_mujoco(m, tree_ir(m), x[:model.nq], x[model.nq:])
+        from eomc.compiler.mjcf.compare import to_mujoco, tree_of
+        d.qpos[:], d.qvel[:] = to_mujoco(m, tree_of(m, model), x[:model.nq], x[model.nq:])
         mujoco.mj_kinematics(m, d)
         dist = mujoco.mj_geomDistance(m, d, floor, geom, 10.0, None)
         deepest = max(v for key, v in model.outputs(0.0, x).items() if key.startswith("depth_"))

@@ -8,7 +8,7 @@ mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 from eomc.compiler.mjcf import MjcfModel  # noqa: E402
-from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco, tree_of  # noqa: E402
 from eomc.runtime.errors import ModelError  # noqa: E402
 
 XML = """<mujoco model="hopper1">
@@ -42,12 +42,11 @@ def hopper(tmp_path_factory):
 
 def test_mjcf_contacts_match_mujoco(hopper):
     from eomc.compiler.mjcf.model import load_mjmodel
-    from eomc.compiler.mjcf.treeir import tree_ir
     path, model = hopper
     assert {"Fn_nose", "Fn_foot", "depth_foot"} <= set(model.output_names)
     m = prepared(load_mjmodel(path))
     d = mujoco.MjData(m)
-    built = tree_ir(m, quaternion=bool(model.quaternions))   # the model's orientation
+    built = tree_of(m, model)
     p = dict(zip(model.param_names, model.param_defaults))
     assert p["r_foot"] == 0.03 and p["r_nose"] == 0.02
     nq = model.nq

@@ -15,9 +15,8 @@ mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 from eomc.compiler.contact.pairs import closest_points  # noqa: E402
-from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import MjcfModel, check_model, load_mjmodel  # noqa: E402
-from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.errors import EomcWarning  # noqa: E402
 
 XML = """<mujoco model="pairs">
@@ -160,7 +159,7 @@ def test_rhs_matches_mujoco_with_the_law_applied_by_hand(pairs):
     m = prepared(load_mjmodel(path))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
-        built = tree_ir(m, actuators=check_model(m, path))
+        built = tree_of(m, model, actuators=check_model(m, path))
     d = mujoco.MjData(m)
     rng = np.random.default_rng(5)
     touching = 0
@@ -233,7 +232,7 @@ def test_pair_outputs_and_events_are_the_law_at_mujocos_nearest_points(tmp_path)
     m = prepared(load_mjmodel(path))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
-        built = tree_ir(m, actuators=check_model(m, path))
+        built = tree_of(m, model, actuators=check_model(m, path))
     d = mujoco.MjData(m)
     rng = np.random.default_rng(7)
     pressed = apart = 0

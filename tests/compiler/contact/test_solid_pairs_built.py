@@ -10,9 +10,8 @@ mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 from eomc.compiler.contact.pairs import solid_contact  # noqa: E402
-from eomc.compiler.mjcf.compare import prepared, to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import prepared, to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import MjcfModel, check_model, load_mjmodel  # noqa: E402
-from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.errors import EomcWarning  # noqa: E402
 
 XML = """<mujoco model="solids"><option gravity="0 0 0"/><worldbody>
@@ -42,7 +41,7 @@ def test_generated_depths_are_the_signed_distances(tmp_path):
     m = prepared(load_mjmodel(path))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
-        built = tree_ir(m, actuators=check_model(m, path))
+        built = tree_of(m, model, actuators=check_model(m, path))
     d = mujoco.MjData(m)
     rng = np.random.default_rng(2)
     g = {n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("ball", "drum", "cube", "slab")}

@@ -20,9 +20,8 @@ dm_control = pytest.importorskip("dm_control")
 
 import eomc  # noqa: E402
 from eomc.compiler.mjcf import MjcfModel  # noqa: E402
-from eomc.compiler.mjcf.compare import coupled_qacc, prepared, qacc_of, rhs_error, to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import coupled_qacc, prepared, qacc_of, rhs_error, to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import check_model, load_mjmodel  # noqa: E402
-from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.errors import ModelFileError  # noqa: E402
 
 SUITE = Path(dm_control.__file__).parent / "suite"
@@ -65,7 +64,7 @@ def test_coupling_oracle_is_sharp(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m0 = load_mjmodel(path)
-        built = tree_ir(m0, actuators=check_model(m0, path), limits=False, friction=False)
+        built = tree_of(m0, model, actuators=check_model(m0, path), limits=False, friction=False)
         m = prepared(load_mjmodel(path))
     d = mujoco.MjData(m)
     nq = len(built.coordinates)
@@ -89,7 +88,7 @@ def test_ball_in_cup_hangs_on_its_string(tmp_path):
         warnings.simplefilter("ignore")
         model = eomc.compile(path, cache_dir=tmp_path, progress=False)
         m = load_mjmodel(path)
-        built = tree_ir(m, actuators=check_model(m, path))
+        built = tree_of(m, model, actuators=check_model(m, path))
     res = model.simulate(model.initial_state, (0.0, 2.0))
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = to_mujoco(m, built, res.x[-1][:model.nq], res.x[-1][model.nq:])

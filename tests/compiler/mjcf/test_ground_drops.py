@@ -15,9 +15,8 @@ mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 from eomc.compiler.mjcf.collision import ground_geoms, resting_depth  # noqa: E402
-from eomc.compiler.mjcf.compare import to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import load_mjmodel  # noqa: E402
-from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 
 BOX = """<mujoco model="{name}">
   <option timestep="0.002"/>
@@ -85,7 +84,7 @@ def _eomc_drop(path, T, tmp_path):
 
 def _root_height(m, model, x):
     d = mujoco.MjData(m)
-    d.qpos[:], d.qvel[:] = to_mujoco(m, tree_ir(m), x[:model.nq], x[model.nq:])
+    d.qpos[:], d.qvel[:] = to_mujoco(m, tree_of(m, model), x[:model.nq], x[model.nq:])
     mujoco.mj_kinematics(m, d)
     return float(d.xpos[1][2])
 

@@ -18,7 +18,7 @@ import pytest
 mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
-from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import MjcfModel, check_model, load_mjmodel  # noqa: E402
 from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.errors import EomcWarning, ModelError, ModelFileError  # noqa: E402
@@ -68,7 +68,7 @@ def _worst(model, path, ignore=(), trials=6):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
         motors = check_model(m, path, ignore)
-    built = tree_ir(m, actuators=motors)
+    built = tree_of(m, model, actuators=motors)
     d = mujoco.MjData(m)
     rng = np.random.default_rng(7)
     nq, nu = len(built.coordinates), len(built.speeds)
@@ -115,7 +115,7 @@ def test_wrong_state_mapping_is_detected(small):
     m = prepared(load_mjmodel(path))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
-        built = tree_ir(m, actuators=check_model(m, path))
+        built = tree_of(m, model, actuators=check_model(m, path))
     q, u = np.full(model.nq, 0.4), np.linspace(-1, 1, model.nx - model.nq)
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
@@ -180,7 +180,7 @@ def test_hopper_mass_matrix_and_inverse_dynamics_with_armature(hopper):
     assert np.any(m.dof_armature)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
-        built = tree_ir(m, actuators=check_model(m, path, ("limits",)))
+        built = tree_of(m, model, actuators=check_model(m, path, ("limits",)))
     d, rng = mujoco.MjData(m), np.random.default_rng(5)
     for _ in range(3):
         q, u, w = rng.uniform(-1, 1, m.nq), rng.uniform(-2, 2, m.nv), rng.uniform(-3, 3, m.nv)
@@ -375,7 +375,7 @@ def test_poses_are_mujocos_body_frames(small):
     m = prepared(load_mjmodel(path))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
-        built = tree_ir(m, actuators=check_model(m, path))
+        built = tree_of(m, model, actuators=check_model(m, path))
     names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, m.nbody)]
     d, rng = mujoco.MjData(m), np.random.default_rng(11)
     for _ in range(3):
@@ -444,7 +444,7 @@ def test_servos_and_clamping_match_mj_forward(tmp_path):
     assert {"arm_j1", "gain_p1", "bias1_p1", "bias2_p1", "bias2_v2", "gain2_g3", "bias0_g3"} <= set(model.param_names)
     assert _worst(model, path, trials=8) < 1e-10
     m = prepared(load_mjmodel(path))
-    built = tree_ir(m, actuators=check_model(m, path))
+    built = tree_of(m, model, actuators=check_model(m, path))
     d, rng = mujoco.MjData(m), np.random.default_rng(2)
     clamped = 0
     for _ in range(4):
@@ -483,7 +483,7 @@ def test_initial_state_is_mujocos_qpos0(small, tmp_path):
     rotations)."""
     path, model = small
     m = load_mjmodel(path)
-    built = tree_ir(m, actuators=check_model(m, path, ("limits",)))
+    built = tree_of(m, model, actuators=check_model(m, path, ("limits",)))
     x0 = np.asarray(model.initial_state)
     assert x0[model.state_names.index("q_slider")] == pytest.approx(0.1)
     qpos, _ = to_mujoco(m, built, x0[:model.nq], x0[model.nq:])

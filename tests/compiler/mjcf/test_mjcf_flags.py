@@ -9,9 +9,8 @@ mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 from eomc.compiler.mjcf import MjcfModel  # noqa: E402
-from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import load_mjmodel  # noqa: E402
-from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.errors import ModelFileError  # noqa: E402
 
 XML = """<mujoco model="flags">
@@ -44,7 +43,7 @@ def _worst(model, m):
     """max |qacc_eomc - qacc_mujoco| / max(1, |qacc|) at random states (out of the ranges too)
     and controls (beyond ctrlrange too); MuJoCo's limits/constraints off as prepared() does."""
     m = prepared(m)
-    built = tree_ir(m)      # only its state layout
+    built = tree_of(m, model)
     d = mujoco.MjData(m)
     rng = np.random.default_rng(11)
     worst = 0.0

@@ -9,9 +9,8 @@ mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 from eomc.compiler.mjcf import MjcfModel  # noqa: E402
-from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import load_mjmodel  # noqa: E402
-from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 
 FREE = """<mujoco model="drifter">
   <option density="1.2" viscosity="0.02" wind="0.5 -0.3 0.1" gravity="0 0 -1"/>
@@ -35,7 +34,7 @@ def _errors(model, m, nstates=8, scale=2.0):
     is M(q) times its qacc with the fluid less its qacc without (fluid_density = fluid_viscosity
     = 0), against MuJoCo's qfrc_fluid (the fluid's share of qfrc_passive)."""
     m = prepared(m)
-    built = tree_ir(m, quaternion=bool(model.quaternions))     # the model's state layout (free joints: quaternions)
+    built = tree_of(m, model)
     d = mujoco.MjData(m)
     rng = np.random.default_rng(4)
     still = dict(zip(model.param_names, model.param_defaults), fluid_density=0.0, fluid_viscosity=0.0)
@@ -102,7 +101,7 @@ def _stroke_against_rk4(path, tmp_path, timestep=1e-3):
         model = eomc.compile(str(path), functions=["rhs"], cache_dir=tmp_path / "c", progress=False)
     m = load_mjmodel(path)
     m.opt.integrator, m.opt.timestep = mujoco.mjtIntegrator.mjINT_RK4, timestep
-    built = tree_ir(m)
+    built = tree_of(m, model)
     d = mujoco.MjData(m)
     d.qvel[m.jnt_dofadr[m.joint("motor1_rot").id]] = 2.0
     d.qvel[m.jnt_dofadr[m.joint("motor2_rot").id]] = -2.0

@@ -20,7 +20,7 @@ mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 from eomc.compiler.contact.mujoco_law import HOLD_WIDTH  # noqa: E402
-from eomc.compiler.mjcf.compare import qacc_of, to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import qacc_of, to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import MjcfModel, check_model, load_mjmodel  # noqa: E402
 from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.errors import EomcWarning, ModelFileError  # noqa: E402
@@ -72,7 +72,7 @@ def test_inside_the_range_qacc_matches_mj_forward_with_limits_on(arm):
     path, model = arm
     m = load_mjmodel(path)
     m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS)    # MuJoCo's is a constraint
-    built = tree_ir(m, actuators=check_model(m, path))
+    built = tree_of(m, model, actuators=check_model(m, path))
     p = model.param_defaults.copy()
     p[[i for i, n in enumerate(model.param_names) if n.startswith("friction_")
        and not n.startswith("friction_v")]] = 0.0

@@ -104,6 +104,27 @@ def test_poses_are_mujocos_body_frames(small):
             assert np.max(np.abs(poses.rotation(name) - d.xmat[b].reshape(3, 3))) < 1e-12
 
 
+def test_the_oracles_tree_follows_the_models_layout_and_refuses_the_other(small):
+    """compare.tree_of builds MuJoCo's tree in the model's layout (the default build's quaternions,
+    or an Euler build's angles); a tree in the other layout is refused by to_mujoco and qacc_of.
+    Before, tree_ir(m) (body-XYZ angles by default) mapped a quaternion build's states silently
+    wrong: the free body's rotation read from (x, qw, qx), its position still right."""
+    from eomc.compiler.mjcf.compare import tree_of
+    path, model = small
+    m = prepared(load_mjmodel(path))
+    built = tree_of(m, model)
+    assert len(built.coordinates) == model.nq and built.tree.quaternions == model.quaternions
+    euler = tree_of(m, MjcfModel(path, orientation="euler"))
+    assert len(euler.coordinates) == model.nq - 2 and not getattr(euler.tree, "quaternions", ())
+    assert len(tree_of(m, MjcfModel(path)).coordinates) == model.nq        # the default: quaternions
+    q, u = _state(model, np.random.default_rng(9))
+    with pytest.raises(ValueError, match=r"coordinates given, the tree has .* tree_of\(m, model\)"):
+        to_mujoco(m, tree_ir(m), q, u)
+    with pytest.raises(ValueError, match="coordinates given"):
+        qacc_of(m, tree_ir(m), q, u, np.zeros(model.nu))
+    to_mujoco(m, built, q, u)
+
+
 def test_simulation_keeps_the_quaternions_unit_and_follows_mujoco(small):
     """A short run against MuJoCo's own RK4 at a small step (contacts, limits off on both)."""
     path, model = small

@@ -9,9 +9,8 @@ mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 from eomc.compiler.mjcf import MjcfModel  # noqa: E402
-from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import load_mjmodel  # noqa: E402
-from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.errors import ModelFileError  # noqa: E402
 
 XML = """<mujoco model="tendons">
@@ -55,7 +54,7 @@ def test_fixed_tendons_match_mj_forward(tmp_path):
                              progress=False)
     assert model.ninput == 2 and "k_tendon_couple" in model.param_names
     m = prepared(load_mjmodel(path))
-    built = tree_ir(m)
+    built = tree_of(m, model)
     d = mujoco.MjData(m)
     rng = np.random.default_rng(2)
     for _ in range(8):
@@ -116,7 +115,7 @@ def test_site_tendon_spring_and_damper_match_mj_forward(tmp_path):
         model = eomc.compile(MjcfModel(path, limits=False), functions=["rhs"], cache_dir=tmp_path / "c",
                              progress=False)
     m = prepared(load_mjmodel(path))
-    built = tree_ir(m, actuators=[0, 1], limits=False, friction=False)
+    built = tree_of(m, model, actuators=[0, 1], limits=False, friction=False)
     d = mujoco.MjData(m)
     rng = np.random.default_rng(4)
     for _ in range(6):

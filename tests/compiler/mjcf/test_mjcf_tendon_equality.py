@@ -8,9 +8,8 @@ mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 from eomc.compiler.mjcf import MjcfModel  # noqa: E402
-from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.compare import prepared, qacc_of, to_mujoco, tree_of  # noqa: E402
 from eomc.compiler.mjcf.model import load_mjmodel  # noqa: E402
-from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 
 XML = """<mujoco model="tied">
   <compiler angle="radian"/>
@@ -78,7 +77,7 @@ def test_against_mujocos_stiff_coupling(tied):
     path, model = tied
     m = load_mjmodel(path)
     m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT) | int(mujoco.mjtDisableBit.mjDSBL_LIMIT)
-    built = tree_ir(m)
+    built = tree_of(m, model)
     d = mujoco.MjData(m)
     x0 = model.initial_state.copy()
     x0[0] = 0.3

@@ -270,14 +270,13 @@ def _worst_against_mujoco(path, tag, cache, frames, seed):
     (xpos/xmat and mj_jacBody, site_xpos/site_xmat and mj_jacSite, subtree_com/subtree_linvel;
     Jacobian columns mapped: a free joint's linear speeds are world components in MuJoCo)."""
     mujoco = pytest.importorskip("mujoco")
-    from eomc.compiler.mjcf.compare import _rotation, prepared, to_mujoco
+    from eomc.compiler.mjcf.compare import _rotation, prepared, to_mujoco, tree_of
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")        # its joint range is not modelled: said, not tested here
         model = eomc.compile(path, tag, functions=["outputs"], cache_dir=cache, progress=False,
                              frames=[name for name, _ in frames] + ["com"])
         m = prepared(mujoco.MjModel.from_xml_path(str(path)))
-    built = __import__("eomc.compiler.mjcf.treeir", fromlist=["tree_ir"]).tree_ir(
-        m, quaternion=bool(model.quaternions))           # the model's orientation
+    built = tree_of(m, model)
     d = mujoco.MjData(m)
     rng = np.random.default_rng(seed)
     worst = 0.0
