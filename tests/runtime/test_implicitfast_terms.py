@@ -7,10 +7,12 @@ motions must equal the contact point's velocity the law uses), the model's stati
 equilibrium (rhs = 0 where a standing robot comes to rest: a fixed point of every implicit
 Euler step, whatever h), a tight Radau run for convergence as h shrinks, and for a touching
 contact's bias a = d/dt (J u) (fs_point_bias) a central difference of its point's velocity.
-The models are built with orientation="euler" (body-XYZ angles, the MJCF default before session
-29): the tests write their states from zeros in those angles and their counts were measured on
-that build; the quaternion default's step is tested in test_rollout_energy_watch.py,
-test_rollout_lanes.py and (thrown_ball) here and in test_rollout.py.
+The models are built as users get them (MJCF free and ball joints as quaternions, the default since
+session 30; zero states upright, _rest), but where a test replays a state recorded on the Euler
+build (ANT_ROW34, ANT_ROW34_018, ANT_ROW4_020 with ANT_ROWS_015, HUMANOID_ROW20_0144: Euler-layout
+vectors, and the step paths they pin were measured there) or pins a count and an exact zero measured
+on it (the hard split's): those build with orientation="euler" (ant_euler, ant_lanes, the humanoid's
+half step).  The hopper has no free or ball joint: both builds are the same.
 """
 import re
 import shutil
@@ -31,11 +33,12 @@ def _gym(name):
     return Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / name
 
 
-def _build(name, tmp_path_factory, functions):
+def _build(name, tmp_path_factory, functions, orientation="quaternion"):
     from eomc.compiler.mjcf.model import MjcfModel
     with warnings.catch_warnings():      # the files' self-collision pairs left out (said by a warning)
         warnings.simplefilter("ignore")
-        return eomc.compile(MjcfModel(_gym(f"{name}.xml"), orientation="euler"), name=f"ift_{name}",
+        return eomc.compile(MjcfModel(_gym(f"{name}.xml"), orientation=orientation),
+                            name=f"ift_{name}" + ("_euler" if orientation == "euler" else ""),
                             functions=functions,
                             cache_dir=tmp_path_factory.mktemp(name), progress=False)
 
@@ -48,6 +51,19 @@ def hopper(tmp_path_factory):
 @pytest.fixture(scope="module")
 def ant(tmp_path_factory):
     return _build("ant", tmp_path_factory, ("rhs", "outputs", "implicit"))
+
+
+@pytest.fixture(scope="module")
+def ant_euler(tmp_path_factory):
+    """The ant with body-XYZ angles: the tests replaying states recorded on that build (module docstring)."""
+    return _build("ant", tmp_path_factory, ("rhs", "outputs", "implicit"), orientation="euler")
+
+
+def _rest(model):
+    """The zero state: every coordinate and speed 0, a quaternion's w 1 (upright: the Euler build's zero angles)."""
+    x = np.zeros(model.nx)
+    x[list(model.quaternions or ())] = 1.0
+    return x
 
 
 def _state(model, seed, sink=0.0):
@@ -190,7 +206,7 @@ def test_ant_stands_at_its_own_10ms_step(ant):
     references measured with mj_step, quoted below)."""
     m = ant
     assert m.timestep == pytest.approx(0.01)
-    x0 = np.zeros(m.nx)
+    x0 = _rest(m)
     names = list(m.state_names)
     iz = names.index("q_root_z")
     x0[iz] = 0.75
@@ -219,7 +235,7 @@ def _ant_from_qpos0(m, t_end, t_eval, start):
     """gymnasium's ant from its qpos0 at 10 ms up to ``t_end``, and one 10 ms step from the row
     ``start`` of that run: (names, dt, run, step)."""
     names = list(m.state_names)
-    x0 = np.zeros(m.nx)
+    x0 = _rest(m)
     x0[names.index("q_root_z")] = 0.75
     dt = 0.01
     with warnings.catch_warnings():
@@ -229,7 +245,7 @@ def _ant_from_qpos0(m, t_end, t_eval, start):
     return names, dt, run, step
 
 
-def test_a_hard_split_does_not_retry_the_half_that_holds_the_onset(ant):
+def test_a_hard_split_does_not_retry_the_half_that_holds_the_onset(ant_euler):
     """gymnasium's ant from its qpos0 at 10 ms: at t = 0.15 s its four ankles swing into their upper
     limits at 7.3 rad/s (the limit law's stiffness slope 0 at the step's start, thousands at its end),
     and the step's residual ratio is 25-56 at every size down to the onset's 1/64 cell.  Bisecting,
@@ -238,8 +254,9 @@ def test_a_hard_split_does_not_retry_the_half_that_holds_the_onset(ant):
     35, 37 on this step): it is split at once (eomc_fixedstep.c, fs_fast_advance: hard_end).  The step
     takes 11 tries instead of 15, and its end is the bisection's (the skipped tries were all
     failures: the run's state after the step, at t = 0.2 and its 1 s error against Radau are the same
-    bits as before, measured)."""
-    m = ant
+    bits as before, measured).  The Euler build: its count and the slopes' exact 0 at the step's start
+    were measured there (the quaternion build's run reaches t = 0.15 s with an ankle's slope 2.5e-18)."""
+    m = ant_euler
     names, dt, run, step = _ant_from_qpos0(m, 0.2, 0.01 * np.arange(21), 15)
     layout = m.metadata["implicit"]["layout"]
     ankles = [names.index(f"q_ankle_{i}") for i in range(1, 5)]        # their speeds' indices too
@@ -266,7 +283,7 @@ def test_the_avx2_build_of_the_step_gives_the_sse2_builds_bits(ant, monkeypatch)
         pytest.skip("no AVX2 on this CPU: the SSE2 build runs")
     if not hasattr(ctypes.CDLL(str(_library_path())), "eomc_fs_run_avx2"):
         pytest.skip("the integrator library has no AVX2 copy (built by a compiler other than gcc)")
-    x0 = np.zeros(ant.nx)
+    x0 = _rest(ant)
     x0[list(ant.state_names).index("q_root_z")] = 0.75
     runs = []
     for sse2 in ("1", ""):
@@ -340,7 +357,7 @@ ANT_ROW34 = [-0.02333670302684917, 0.02190979870252646, 0.619478684097169, 0.001
              0.6045471059639096, 0.3925410806201799, -0.7424371657998663]
 
 
-def test_a_step_whose_contact_force_stops_being_clipped_is_no_stick_slip_step(ant):
+def test_a_step_whose_contact_force_stops_being_clipped_is_no_stick_slip_step(ant_euler):
     """The ant from ANT_ROW34, one 10 ms step: two feet are 4.5-5 mm in touch and rising faster
     than the damped law's clip speed, so their normal force is clipped at 0 (the law's slopes K all
     nil at the step's start) and pushes again at its end (K ~ 5e5).  fs_switched saw depths only, so
@@ -348,8 +365,8 @@ def test_a_step_whose_contact_force_stops_being_clipped_is_no_stick_slip_step(an
     (FRICTION_FACTOR): +0.383 J in one step, status 20 (simulate's energy verdict).  Clipped ->
     pushing in touch now counts as a touch-down (eomc_fixedstep.c, fs_switched) and the step is
     bisected: the energy output falls (measured -0.144 J, 12 calls) and the 0.7 s restart ends
-    with status 0."""
-    m = ant
+    with status 0.  The Euler build: ANT_ROW34 is its state."""
+    m = ant_euler
     x0 = np.array(ANT_ROW34)
     assert x0.shape == (m.nx,)
     dt = 0.01
@@ -394,7 +411,7 @@ def _one_step(m, state, dt):
         return m.simulate(x0, (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt], raise_on_failure=False)
 
 
-def test_a_foot_landing_from_out_of_touch_is_not_taken_inside_a_whole_step(ant):
+def test_a_foot_landing_from_out_of_touch_is_not_taken_inside_a_whole_step(ant_euler):
     """The ant from ANT_ROW34_018, one 10 ms step: its fourth foot, 5.8 mm above the floor, lands
     inside the step.  The whole step's try passed the residual test (ratio 0.456 < split 0.5: the
     Newton correction is made with the end's stiff slopes, and the foot is a small part of the
@@ -405,8 +422,8 @@ def test_a_foot_landing_from_out_of_touch_is_not_taken_inside_a_whole_step(ant):
     out of touch deeper than 0.01 of its radius (80 mm here) is now measured with the start's matrix
     as well (eomc_fixedstep.c, fs_onset and fs_deep): it fails, the touch-down is located, and the
     energy falls (measured 16.89 J, 12 calls, the foot 0.7 mm in).  Fails on main 8be08cbd (the
-    foot 13.8 mm in)."""
-    m = ant
+    foot 13.8 mm in).  The Euler build: ANT_ROW34_018 is its state."""
+    m = ant_euler
     step = _one_step(m, ANT_ROW34_018, 0.01)
     assert step.status == 0, step.message
     depth = step.outputs["depth_fourth_ankle_geom_0"]
@@ -454,6 +471,7 @@ def ant_lanes(tmp_path_factory):
     functions = tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
+        # orientation="euler": ANT_ROW4_020 and ANT_ROWS_015 are the Euler build's states
         return eomc.compile(MjcfModel(_gym("ant.xml"), orientation="euler"), name="ift_ant_lanes", functions=functions,
                             cache_dir=tmp_path_factory.mktemp("ant_lanes"), progress=False,
                             cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
@@ -518,7 +536,7 @@ def test_a_half_step_with_a_deep_landing_is_not_taken_by_the_halving_rule(tmp_pa
     a contact lands deeper than 0.01 of its radius is now split regardless (eomc_fixedstep.c,
     fs_lands): 8 calls, the foot 0.8 mm in, the energy falls (369.88 J measured).  Fails on main
     8be08cbd (simulate's status 20 on this single step)."""
-    m = _build("humanoid", tmp_path_factory, ("rhs", "outputs", "implicit"))
+    m = _build("humanoid", tmp_path_factory, ("rhs", "outputs", "implicit"), orientation="euler")   # its state's build
     step = _one_step(m, HUMANOID_ROW20_0144, 0.003)
     assert step.status == 0, step.message
     depth = step.outputs["depth_right_foot"]
@@ -572,7 +590,7 @@ def test_a_contact_past_its_radius_fails_the_run_naming_it(tmp_path):
     from eomc.compiler.mjcf.model import MjcfModel
     path = tmp_path / "ball.xml"
     path.write_text(BALL)
-    m = eomc.compile(MjcfModel(path, orientation="euler"), name="ift_ball", cache_dir=tmp_path, progress=False)
+    m = eomc.compile(MjcfModel(path), name="ift_ball", cache_dir=tmp_path, progress=False)
     assert implicit_terms(m) is not None
     ok = m.simulate(None, (0, 1.0), method="implicitfast", dt=0.002)
     assert ok.status == 0 and float(np.max(ok.outputs["depth_ball"])) < 0.005
@@ -606,14 +624,14 @@ def test_a_ball_landing_fast_from_a_micrometre_in_touch_gains_no_energy(tmp_path
     path = tmp_path / "ball.xml"
     path.write_text(BALL)
     functions = tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",)
-    m = eomc.compile(MjcfModel(path, orientation="euler"), name="ift_onset", cache_dir=tmp_path, progress=False,
+    m = eomc.compile(MjcfModel(path), name="ift_onset", cache_dir=tmp_path, progress=False,
                      functions=functions,
                      cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
     names = list(m.state_names)
     X0 = []
     for d0 in (1e-8, 1.6e-7):
         for vz in (-1.0, -2.6, -5.0):
-            x0 = np.zeros(m.nx)
+            x0 = _rest(m)
             x0[names.index("q_root_z")] = 0.05 - d0           # radius 0.05: d0 deep
             x0[names.index("u_root_vx")] = 0.2
             x0[names.index("u_root_vz")] = vz
@@ -655,7 +673,7 @@ def test_a_pressed_ball_rising_past_its_clip_speed_gains_no_energy(tmp_path):
     path = tmp_path / "ball.xml"
     path.write_text(BALL)
     functions = tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",)
-    m = eomc.compile(MjcfModel(path, orientation="euler"), name="ift_clip", cache_dir=tmp_path, progress=False,
+    m = eomc.compile(MjcfModel(path), name="ift_clip", cache_dir=tmp_path, progress=False,
                      functions=functions,
                      cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
     names, p = list(m.state_names), dict(zip(m.param_names, m.param_defaults))
@@ -663,7 +681,7 @@ def test_a_pressed_ball_rising_past_its_clip_speed_gains_no_energy(tmp_path):
     X0 = []
     for d0 in (2e-4, 5e-4, 1e-3, 2e-3, 4e-3):
         for f in (1.05, 1.2, 1.5, 2.0, 3.0):
-            x0 = np.zeros(m.nx)
+            x0 = _rest(m)
             x0[names.index("q_root_z")] = 0.05 - d0           # radius 0.05: d0 deep
             x0[names.index("u_root_vz")] = f * vclip
             X0.append(x0)
@@ -706,12 +724,12 @@ def test_a_rolling_ball_gains_no_energy(tmp_path):
     from eomc.runtime.simulate import free_roots
     path = tmp_path / "rolling.xml"
     path.write_text(ROLLING)
-    m = eomc.compile(MjcfModel(path, orientation="euler"), name="ift_rolling", cache_dir=tmp_path, progress=False)
+    m = eomc.compile(MjcfModel(path), name="ift_rolling", cache_dir=tmp_path, progress=False)
     assert implicit_terms(m) is not None and implicit_terms(m).nfree == 1
     assert free_roots(m, m.metadata["implicit"]["parents"]) == [0]
     names, p = list(m.state_names), dict(zip(m.param_names, m.param_defaults))
     for direction in (0.0, 0.6):                  # along x, and across the body's axes
-        x0 = np.zeros(m.nx)
+        x0 = _rest(m)
         x0[names.index("q_root_z")] = 0.1 - (9.81 / p["k_ball"]) ** (2 / 3)   # resting: k d^1.5 = m g
         v = np.array([np.cos(direction), np.sin(direction), 0.0])
         x0[m.nq:m.nq + 3] = v                                      # 1 m/s: w r
@@ -956,11 +974,13 @@ def test_a_contacts_bias_is_the_derivative_of_its_points_velocity_along_the_moti
     six add nothing: V_f x V_f) and two hinges.  Four states each with speeds of order 1, so a is of
     order 0.05-20 m/s^2 and its terms (B_w x p, B_v, w x vp) each matter: dropping w x vp fails it
     (checked by breaking the C).  The lanes kernel's FSL_BIAS does the same operations (its rows are
-    checked bit-equal to the scalar path's: test_rollout_lanes)."""
+    checked bit-equal to the scalar path's: test_rollout_lanes).  The ant is the quaternion build
+    (its root's w jittered too): its draws differ from the Euler build's (15 coordinates, not 14), and
+    four states put 4 contacts in touch, so it takes eight states (the bar of 6 kept)."""
     m = request.getfixturevalue(name)
     root, bent = ("q_rootz", ()) if name == "hopper" else ("q_root_z", ANKLES)
     checked = 0
-    for seed in range(4):
+    for seed in range(4 if name == "hopper" else 8):
         x = _moving_state(m, seed, root, bent)
         out, at = implicit_terms_at(m, x)
         for c in range(len(m.metadata["implicit"]["contacts"])):
@@ -1149,7 +1169,7 @@ def test_a_joint_of_several_speeds_turns_each_with_its_body_in_the_contact_bias(
         for c, item in enumerate(info["contacts"]):
             if item["name"] not in _LOWER[name]:
                 continue                                   # (the ball arm's capsules)
-            x = np.zeros(m.nx) if m.initial_state is None else np.array(m.initial_state, dtype=float)
+            x = _rest(m) if m.initial_state is None else np.array(m.initial_state, dtype=float)
             x[:m.nq] += 0.3 * rng.normal(size=m.nq)
             x[m.nq:] = rng.normal(size=m.nu)
             x = _touching(m, x, c, _LOWER[name][item["name"]])
