@@ -233,6 +233,15 @@ def test_pair_table_on_limbs(tmp_path, monkeypatch):
     whose clip event is at least BROAD_PAD and at most the exact one: each on its exact value's
     side, outside the runtime's noise band."""
     called, inline = _limbs(tmp_path, monkeypatch, ("rhs", "jac_x", "outputs", "events"))
+    # the default (quaternion) build's jac_x takes the taped path as the Euler build's does
+    # (test_pair_table_is_the_inlined_schemes): it tapes the table call, and its analytic kernel
+    # reads the tape and calls the twin per column (benchmarks/results/orientation_derivatives.md)
+    assert called.quaternions
+    source = next((tmp_path / "True").rglob("limbs.c")).read_text()
+    jac = _function(source, "limbs_jac_x")
+    assert "eomc_pairs_tape(" in jac and "eomc_pairs(" not in jac, jac[:2000]
+    assert f"_rnea_derivs(an, u, ud, out, {called.nx}, {called.nq}, -1.0, 1, &PT_[" in jac
+    assert "eomc_pairs_dot(pt, din, 0, 0, dw);" in source
     names = list(inline.output_names)
     assert names == list(called.output_names)
     self_pairs = [i for i, k in enumerate(names) if k.startswith("Fn_") and "__" in k]
