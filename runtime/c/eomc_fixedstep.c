@@ -1075,6 +1075,10 @@ struct eomc_fs_lanes {
     double *A, *b, *J, *GJ;    /* 64-byte aligned: nslot, nu, 3 nu, 3 nu vectors of lanes */
     double *D, *R, *V;         /* nu, nu, nq vectors: fs_fast_try's du and dv, the rate */
     void *mem;
+    int *nstart, *ncol;        /* nq + 1, nq nu: N's columns not a constant 0 per row (fs_nlists' lists) */
+    int *border;               /* per chain entry (imp->chain's order): each contact's chain sorted by speed */
+    unsigned char *bflag;      /* per chain entry of border: 1 a root free joint's speed, 2 its joint's first */
+    signed char *bpair;        /* nc: FSL_BIAS's case: 0 one branch, 1 a pair's (fs_pair_bias), -1 none */
     unsigned test_fail;        /* test hook: kernel lanes (bit l: lane l of every group) marked
                                   failed, as a failed pivot is ($EOMC_TEST_FS_LANES_FAIL, read once) */
 };
@@ -1243,6 +1247,7 @@ static int fs_secants(const eomc_implicit *imp, const double *E, double *cache, 
 void eomc_fs_lanes_free(eomc_fs_lanes *w)
 {
     if (w == NULL) return;
+    free(w->nstart);
     free(w->mem);
     free(w->slot_ij);
     free(w->pmem);
@@ -1406,6 +1411,52 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
         }
         fs_columns(nu, w->dyn ? w->base.start : w->full.start, w->dyn ? w->base.anc : w->full.anc, w->mstart,
                    w->mcols);
+    }
+    {   /* N's lists (fs_nlists: the constant 0 entries found by NAME_implicit_const over NaN) and
+           FSL_BIAS's per-contact order and flags (fs_point_bias's, made once) */
+        int nch = nc > 0 ? imp->chain_start[nc] : 0, pn = 0;
+        size_t bytes = ((size_t)nq + 1 + (size_t)nq * n + (size_t)nch) * sizeof(int) + (size_t)nch + (size_t)nc + 1;
+        double *probe = NULL;
+        if ((w->nstart = (int *)malloc(bytes)) == NULL) { eomc_fs_lanes_free(w); return NULL; }
+        w->ncol = w->nstart + nq + 1;
+        w->border = w->ncol + (size_t)nq * n;
+        w->bflag = (unsigned char *)(w->border + nch);
+        w->bpair = (signed char *)(w->bflag + nch);
+        if (imp->terms_const) {
+            if ((probe = (double *)malloc(w->L.size * sizeof(double) + 1)) == NULL) { eomc_fs_lanes_free(w); return NULL; }
+            for (size_t e = 0; e < w->L.size; e++) probe[e] = NAN;
+            imp->terms_const(probe);
+        }
+        for (int i = 0; i < nq; i++) {
+            w->nstart[i] = pn;
+            for (int k = 0; k < nu; k++) {
+                double v = probe ? probe[w->L.N + (size_t)i * n + (size_t)k] : NAN;
+                if (isnan(v) || v != 0.0) w->ncol[pn++] = k;
+            }
+        }
+        w->nstart[nq] = pn;
+        free(probe);
+        for (int c = 0; c < nc; c++) {
+            const int c0 = imp->chain_start[c], m = imp->chain_start[c + 1] - c0;
+            int *order = w->border + c0, pair = 0;
+            for (int k = 0; k < m; k++) {
+                pair |= imp->chain[c0 + k] < 0;
+                order[k] = imp->chain[c0 + k];
+            }
+            for (int i = 1; i < m; i++)
+                for (int j = i; j > 0 && fs_speed(order[j - 1]) > fs_speed(order[j]); j--) {
+                    int t = order[j];
+                    order[j] = order[j - 1];
+                    order[j - 1] = t;
+                }
+            if (m > 0 && imp->parent && imp->parent[fs_speed(order[0])] >= 0) pair = 1;
+            w->bpair[c] = m > FS_CHAIN || (pair && !imp->parent) ? -1 : pair;
+            for (int i = 0; i < m; i++) {
+                int k = fs_speed(order[i]), own = 0;
+                for (int r = 0; r < imp->nfree; r++) own |= k >= imp->free[r] && k < imp->free[r] + 6;
+                w->bflag[c0 + i] = (unsigned char)(own | (imp->joint && imp->joint[k] == k ? 2 : 0));
+            }
+        }
     }
     {
         size_t doubles = ((size_t)w->nslot + 9 * n + (size_t)nq) * (size_t)width;

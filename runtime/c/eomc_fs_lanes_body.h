@@ -191,57 +191,36 @@ __attribute__((target(FSL_TARGET))) static void FSL_STEP(eomc_fs_lanes *w, const
     }
     for (int i = 0; i < nu; i++) D[i] = h * b[i];
     FSL_SOLVE(w, P, A, D);
-    {   /* v = qd + N du row by row, four rows at a time (each row's sum in the order of k) */
-        int i = 0;
-        for (; i + 4 <= nq; i += 4) {
-            FSL_V v0 = FSL_T(L->qd + (size_t)i), v1 = FSL_T(L->qd + (size_t)i + 1);
-            FSL_V v2 = FSL_T(L->qd + (size_t)i + 2), v3 = FSL_T(L->qd + (size_t)i + 3);
-            const size_t n0 = L->N + (size_t)i * nu;
-            for (int k = 0; k < nu; k++) {
-                const FSL_V d = D[k];
-                v0 += FSL_T(n0 + (size_t)k) * d;
-                v1 += FSL_T(n0 + (size_t)nu + (size_t)k) * d;
-                v2 += FSL_T(n0 + 2 * (size_t)nu + (size_t)k) * d;
-                v3 += FSL_T(n0 + 3 * (size_t)nu + (size_t)k) * d;
-            }
-            V[i] = v0; V[i + 1] = v1; V[i + 2] = v2; V[i + 3] = v3;
-        }
-        for (; i < nq; i++) {
-            FSL_V v = FSL_T(L->qd + (size_t)i);
-            for (int k = 0; k < nu; k++) v += FSL_T(L->N + (size_t)i * nu + (size_t)k) * D[k];
-            V[i] = v;
-        }
+    for (int i = 0; i < nq; i++) {   /* v = qd + N du over N's columns that are not a constant 0 (w->ncol:
+                                        fs_fast_try's sum, its terms in its order; the humanoid's 35 of 552) */
+        FSL_V v = FSL_T(L->qd + (size_t)i);
+        const size_t ni = L->N + (size_t)i * nu;
+        for (int x = w->nstart[i]; x < w->nstart[i + 1]; x++) v += FSL_T(ni + (size_t)w->ncol[x]) * D[w->ncol[x]];
+        V[i] = v;
     }
 #undef FSL_T
 }
 
-/* fs_point_bias in every lane: the same operations in the same order (OUT, Uv, stride: the kernel's);
- * a body-body pair's (fs_pair_bias) likewise */
-__attribute__((target(FSL_TARGET))) static int FSL_BIAS(const eomc_implicit *imp, const fs_layout *L,
-                                                       const double *OUT, const double *Uv, size_t stride,
-                                                       const int *cols, int m, const FSL_V *p, const FSL_V *vp,
-                                                       FSL_V *a)
+/* fs_point_bias of contact c in every lane: the same operations in the same order (OUT, Uv, stride:
+ * the kernel's); a body-body pair's (fs_pair_bias) likewise.  The chain's order by speed, its case
+ * and each speed's flags are made once (eomc_fs_lanes_new: w->border, bflag, bpair), no longer
+ * sorted and looked up per contact and call (the free-joint test alone was a tenth of this
+ * function's samples on the ant, perf) */
+__attribute__((target(FSL_TARGET))) static int FSL_BIAS(const eomc_fs_lanes *w, int c, const double *OUT,
+                                                       const double *Uv, size_t stride, const FSL_V *p,
+                                                       const FSL_V *vp, FSL_V *a)
 {
+    const eomc_implicit *imp = w->imp;
+    const fs_layout *L = &w->L;
     const FSL_V zero = {0};
-    int order[FS_CHAIN], pair = 0;
+    const int c0 = imp->chain_start[c], m = imp->chain_start[c + 1] - c0, *order = w->border + c0;
+    const unsigned char *fl = w->bflag + c0;
     FSL_V V[6] = {zero, zero, zero, zero, zero, zero}, B[6] = {zero, zero, zero, zero, zero, zero};
     FSL_V Vg[6] = {zero, zero, zero, zero, zero, zero};
 #define FSL_SCREW(k, x) (*(const FSL_V *)(OUT + (L->screw + 6 * (size_t)(k) + (size_t)(x)) * stride))
-    if (m > FS_CHAIN) return 0;
-    for (int k = 0; k < m; k++) {
-        pair |= cols[k] < 0;
-        order[k] = cols[k];
-    }
-    for (int i = 1; i < m; i++)
-        for (int j = i; j > 0 && fs_speed(order[j - 1]) > fs_speed(order[j]); j--) {
-            int t = order[j];
-            order[j] = order[j - 1];
-            order[j - 1] = t;
-        }
-    if (m > 0 && imp->parent && imp->parent[fs_speed(order[0])] >= 0) pair = 1;
-    if (pair) {                                       /* fs_pair_bias */
+    if (w->bpair[c] < 0) return 0;
+    if (w->bpair[c]) {                                /* fs_pair_bias */
         FSL_V V0[6] = {zero, zero, zero, zero, zero, zero}, VB[6], VA[6], pa[3], dw[3];
-        if (!imp->parent) return 0;
         for (int k = imp->parent[fs_speed(order[0])]; k >= 0; k = imp->parent[k]) {
             FSL_V uk;
             memcpy(&uk, Uv + (size_t)k * stride, sizeof uk);
@@ -250,17 +229,16 @@ __attribute__((target(FSL_TARGET))) static int FSL_BIAS(const eomc_implicit *imp
         memcpy(VB, V0, sizeof VB);
         memcpy(VA, V0, sizeof VA);
         for (int i = 0; i < m; i++) {
-            int k = fs_speed(order[i]), own = 0;
+            int k = fs_speed(order[i]);
             FSL_V S[6], X[6], uk, *Vs = order[i] >= 0 ? VB : VA;
             const FSL_V *Vk = Vs;
             memcpy(&uk, Uv + (size_t)k * stride, sizeof uk);
             for (int x = 0; x < 6; x++) S[x] = FSL_SCREW(k, x) * uk;
-            for (int r = 0; r < imp->nfree; r++) own |= k >= imp->free[r] && k < imp->free[r] + 6;
             if (imp->joint) {                         /* that side's V before k's joint */
-                if (imp->joint[k] == k) memcpy(Vg, Vs, sizeof Vg);
+                if (fl[i] & 2) memcpy(Vg, Vs, sizeof Vg);
                 Vk = Vg;
             }
-            if (!own) {
+            if (!(fl[i] & 1)) {
                 X[0] = Vk[1] * S[2] - Vk[2] * S[1];
                 X[1] = Vk[2] * S[0] - Vk[0] * S[2];
                 X[2] = Vk[0] * S[1] - Vk[1] * S[0];
@@ -284,17 +262,16 @@ __attribute__((target(FSL_TARGET))) static int FSL_BIAS(const eomc_implicit *imp
         return 1;
     }
     for (int i = 0; i < m; i++) {
-        int k = order[i], own = 0;
+        int k = order[i];
         FSL_V S[6], uk;
         const FSL_V *Vk = V;
         memcpy(&uk, Uv + (size_t)k * stride, sizeof uk);
         for (int x = 0; x < 6; x++) S[x] = FSL_SCREW(k, x) * uk;
-        for (int r = 0; r < imp->nfree; r++) own |= k >= imp->free[r] && k < imp->free[r] + 6;
         if (imp->joint) {                             /* V before k's joint */
-            if (imp->joint[k] == k) memcpy(Vg, V, sizeof Vg);
+            if (fl[i] & 2) memcpy(Vg, V, sizeof Vg);
             Vk = Vg;
         }
-        if (!own) {
+        if (!(fl[i] & 1)) {
             B[0] += Vk[1] * S[2] - Vk[2] * S[1];
             B[1] += Vk[2] * S[0] - Vk[0] * S[2];
             B[2] += Vk[0] * S[1] - Vk[1] * S[0];
@@ -405,7 +382,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
         if (!FSL_ANY(&on)) continue;
         {                                             /* Kv = K v + C a: fs_point_bias */
             FSL_V ab[3] = {zero, zero, zero};
-            int bias = FSL_BIAS(imp, L, OUT, Uv, stride, cols, m, p, vp, ab);
+            int bias = FSL_BIAS(w, c, OUT, Uv, stride, p, vp, ab);
             for (int a = 0; a < 3; a++) {
                 Kv[a] = K[3 * a] * vp[0] + K[3 * a + 1] * vp[1] + K[3 * a + 2] * vp[2];
                 if (bias) Kv[a] += Cs[3 * a] * ab[0] + Cs[3 * a + 1] * ab[1] + Cs[3 * a + 2] * ab[2];
@@ -460,13 +437,34 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
         int na = P->start[k + 1] - P->start[k];
         FSL_V dk = A[w->diag[k]], inv, *row = (FSL_V *)w->R;
         const int *rk = up;                          /* the slots (k, a[y]) */
+        int done2 = 0;
         fail |= ~(FSL_FABS(dk) > lim) | ~FSL_FINITE(dk);
         inv = one / dk;
         up += na;
         /* row k, unchanged by its own updates (they write rows a[x] < k), copied out once: the
          * updates then read it in order instead of through its slots (FSL_STEP overwrites R) */
         for (int y = 0; y < na; y++) row[y] = A[rk[y]];
-        for (int x = 0; x < na; x++) {
+        /* two rows a[x], a[x + 1] at once while every lane of both updates: row[y] loaded once for
+         * both, one loop (rows' entries distinct, each the same operation: the same bits).
+         * Measured with the N du lists and FSL_BIAS's lists (one process, switched call by call,
+         * 64 rows, core 1, load 10-11): ant 0.980-0.983, humanoid 0.971 of the rollout's time;
+         * four rows at once measured no better than two */
+        for (int x = 0; x + 2 <= na; x += 2) {
+            const int *u0 = up, *u1 = up + 1 + na;
+            FSL_V v0 = A[u0[0]] * inv, v1 = A[u1[0]] * inv;
+            FSL_VI nz = (v0 != zero) & (v1 != zero);
+            if (!FSL_ALL(&nz)) break;
+            for (int y = 0; y < na; y++) {
+                const FSL_V r = row[y];
+                A[u0[1 + y]] -= v0 * r;
+                A[u1[1 + y]] -= v1 * r;
+            }
+            A[u0[0]] = v0;
+            A[u1[0]] = v1;
+            up += 2 * (1 + na);
+            done2 = x + 2;
+        }
+        for (int x = done2; x < na; x++) {           /* the rest, one row at a time */
             const int *ri = up + 1;                  /* (a[x], k), then (a[x], a[y]) */
             FSL_V u = A[up[0]] * inv;
             FSL_VI nz = u != zero;
