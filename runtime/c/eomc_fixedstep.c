@@ -104,6 +104,8 @@
                                  limit (its radius) lands deep (see fs_lands) */
 #define CHART_FACTOR 4.0      /* fast path: the configuration's residual counts this many times in the
                                  try's ratio (see fs_chart_ratio) */
+#define CREEP_FRACTION 0.001  /* fast path: a try taken above split as a stick/slip step presses no
+                                 contact in by more than this * its depth limit (see fs_creeps) */
 
 #ifndef EOMC_FS_AVX2_COPY   /* the copy has only eomc_fs_run (as eomc_fs_run_avx2) */
 size_t eomc_fs_work_size(int nx)
@@ -1706,6 +1708,32 @@ static int fs_lands(const fs_fast *q)
     return 0;
 }
 
+/* Whether a contact in touch at both ends of the try is pressed in by more than CREEP_FRACTION of its
+ * (finite) depth limit.  A try whose ratio is above split is taken as a stick/slip step -- whole, by
+ * the FRICTION_FACTOR rule, or as a sub-step that halving did not mend -- only without one
+ * (fs_fast_advance): the residual those rules let through is the friction's (tangential, dissipated),
+ * and one that lands on a contact's depth is not.  Why (session 31, benchmarks/results/fixedstep.md's
+ * notes; tests/runtime/test_implicitfast_terms.py): a ball spinning at 30-50 rad/s about a horizontal
+ * axis on a floor 1e4 times the file's stiffness, at 4-5 ms, had each step's first half taken at
+ * ratio 0.78-0.81 after the whole step's 1.3-1.5 (no regime change) and sank 0.04-0.8 mm a step
+ * until its centre crossed the floor (status 10 in 19 of 24 such starts on main 2aea16df); with
+ * this rule they stay within 0.2-3 mm (one 17 mm), with fewer calls.  The humanoid, ant, walker2d,
+ * hopper, Go2 and G1 (qpos0 and 12 of bench_rollout_contacts' starts each) take the same calls
+ * within +0.3 % (G1 6968 -> 6986, humanoid 5956 -> 5963): their stance steps taken so press a foot
+ * in by less than 0.001 of its radius.  A contact with no finite limit (a body-body pair) is not
+ * measured.  Not mended: on that floor a ball spinning about a random axis also sinks through whole
+ * steps that pass the ratio (35-40 of 48 starts end with status 10 with or without this rule). */
+static int fs_creeps(const fs_fast *q)
+{
+    const double *lim = q->ops->imp->depth_limit;
+    if (!lim) return 0;
+    for (int c = 0; c < q->ops->imp->ncontact; c++) {
+        double a = q->T[q->L.contact + 25 * (size_t)c], b = q->T1[q->L.contact + 25 * (size_t)c];
+        if (a > 0.0 && isfinite(lim[c]) && b - a > CREEP_FRACTION * lim[c]) return 1;
+    }
+    return 0;
+}
+
 /* The try's ratio with Newton's correction taken with the start's matrix A (factored for this
  * step) instead of A1: |A^-1 r| / (|du| + h g), r the residual M1 du - h f1 (not changed).  Asked
  * only of a try that passes, at a touch-down from in touch (fs_onset), where A1's correction
@@ -2233,16 +2261,17 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
          * inside it: the friction of a stance switching between stick and slip, which
          * halving does not mend (see fs_switched) */
         if ((size == MAX_SPLIT || located) && !s && ratio > split
-            && ratio <= FRICTION_FACTOR * split && !(q->chart > split) && !fs_switched(q))
+            && ratio <= FRICTION_FACTOR * split && !(q->chart > split) && !fs_switched(q) && !fs_creeps(q))
             goto take;
         located = 0;
         /* split while the test fails and splitting helps: a linearisation error shrinks with
          * the step (the ratio falls at least by half per halving); one that does not (a
          * regularised friction law switching between stick and slip, where its slope jumps
          * by mu F_n / v_s) is no instability, and splitting it further only costs calls.  A
-         * try in which a contact lands deep is split regardless (fs_lands) */
+         * try in which a contact lands deep or is pressed in is split regardless (fs_lands,
+         * fs_creeps) */
         if ((s || (ratio > split && (ratio > HARD_FACTOR * split || !(ratio > 0.5 * before) || q->chart > split
-                                      || fs_lands(q))))
+                                      || fs_lands(q) || fs_creeps(q))))
             && size > 1) {
             if (s || (ratio > HARD_FACTOR * split && fs_switched(q) == FS_OTHER)) hard_end = pos + size;
             before = s ? INFINITY : ratio;
