@@ -106,6 +106,9 @@
                                  try's ratio (see fs_chart_ratio) */
 #define CREEP_FRACTION 0.001  /* fast path: a try taken above split as a stick/slip step presses no
                                  contact in by more than this * its depth limit (see fs_creeps) */
+#define WALK_TARGET 0.5       /* fast path: after a touch-down's onset cell, the next sub-step is sized for a
+                                 ratio of this * split (see fs_walk_size) */
+#define WALK_GROW 16          /* ... growing at most this many times a take */
 
 #ifndef EOMC_FS_AVX2_COPY   /* the copy has only eomc_fs_run (as eomc_fs_run_avx2) */
 size_t eomc_fs_work_size(int nx)
@@ -2075,6 +2078,43 @@ static int fs_assemble_ahead(fs_fast *q, double hs, const double *xs)
     return rq->ahead;
 }
 
+/* Whether the only regime changes from T to T1 are contacts in touch at both ends pressing in: a depth
+ * growing more than SWITCH_FACTOR-fold but not ONSET_FACTOR-fold (fs_switched's FS_OTHER for it), no
+ * normal force clipping or unclipping, no touch-down, lift-off or joint law's change.  After a located
+ * touch-down this is the landed contact sinking in over the sub-steps that follow its onset cell. */
+static int fs_pressing_in(const fs_fast *q)
+{
+    const eomc_fs_ops *ops = q->ops;
+    const double *j0 = q->T + q->L.joint, *j1 = q->T1 + q->L.joint;
+    for (int c = 0; c < ops->imp->ncontact; c++) {
+        const double *e0 = q->T + q->L.contact + 25 * (size_t)c, *e1 = q->T1 + q->L.contact + 25 * (size_t)c;
+        double a = e0[0], b = e1[0];
+        if (fs_changed(a, b) && !(a > 0.0 && b > a && b <= ONSET_FACTOR * a)) return 0;
+        if (a > 0.0 && b > 0.0 && fs_clipped(e0) != fs_clipped(e1)) return 0;
+    }
+    for (int i = 0; i < 2 * ops->nu; i++)
+        if (fs_changed(j0[i], j1[i])) return 0;
+    return 1;
+}
+
+/* The walk back after a touch-down's onset cell (fs_fast_advance): the next sub-step's size (grid
+ * units) after a take of `size` ending at `pos` with ratio `ratio`, at least the halving grid's
+ * `grid`.  The ratio is O(h) (the linearisation's error over |du|), so a take at ratio r predicts
+ * WALK_TARGET * split at (WALK_TARGET * split / r) times its size; the size is that, at most
+ * WALK_GROW times this one, cut to the largest power of two that pos is a multiple of (the halving
+ * grid: every sub-step still starts and ends on it), never below the grid's own doubling.  Each
+ * sub-step is checked as any (a failed one is halved or located again).  Why and what was measured:
+ * fs_fast_advance's comment (session 30). */
+static int fs_walk_size(int pos, int size, int grid, double ratio, double split)
+{
+    double g = ratio > 0.0 ? WALK_TARGET * split / ratio : WALK_GROW;
+    int ns, p = 1;
+    if (!(g < WALK_GROW)) g = WALK_GROW;
+    ns = (int)(size * g);
+    while (pos % (2 * p) == 0 && 2 * p <= ns) p *= 2;
+    return p > grid ? p : grid;
+}
+
 /* fs_loop's step for the fast path: one step (2), or, with eomc_implicit.split > 0 and
  * where the step's residual ratio (fs_fast_try) is above it, 2, 4 ... MAX_SPLIT equal
  * sub-steps (as fs_advance does for the W-method).  A sub-step is split further only while
@@ -2221,6 +2261,15 @@ static int fs_assemble_ahead(fs_fast *q, double hs, const double *xs)
  * ending on the step's end (a walker2d row failed over 704 starts), and off the grid on every walk with a
  * target of split (humanoid calls -4.6 %, rows flagged wrong 7 -> 10, the largest rise 10.3 -> 15.3 J,
  * errors against Radau larger).
+ *
+ * Session 31 (benchmarks/results/fixedstep.md's notes): that rule landed (walk, fs_walk_size,
+ * fs_pressing_in) after fs_creeps: the ball's row 12 sank through takes the halving rule made without
+ * a halving, which a spinning ball on a stiff floor shows on main alone
+ * (test_a_ball_spinning_on_a_stiff_floor_is_not_pressed_through_it_by_stick_slip_steps); with
+ * fs_creeps the row ends as on main (status 20).  G1's +2-3.5 % calls on bench_fixedstep's drop are
+ * its path's: over 10 start heights (+0 ... +0.9 mm) 9128 -> 9205 calls at 2 ms and 14261 -> 14127 at
+ * 1 ms (single runs spread 809-994 and 1347-1575), and only 5 tries of its 2 ms drop were grown
+ * past the grid's doubling (1 failed): no cap.
  */
 static int fs_fast_advance(void *self, double t, double h, const double *x, double **x1, double **f1,
                            const double **e1)
@@ -2228,7 +2277,7 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
     fs_fast *q = (fs_fast *)self;
     const eomc_fs_ops *ops = q->ops;
     const double *xs = x, *lim = ops->imp->depth_limit;
-    int s, pos = 0, size = MAX_SPLIT, n = q->n, quiet;
+    int s, pos = 0, size = MAX_SPLIT, n = q->n, quiet, sw, grow;
     double split = ops->imp->split > 0.0 ? ops->imp->split : INFINITY;
     if (q->deep >= 0) return EOMC_PENETRATED;
     if (!q->have_T) {
@@ -2241,6 +2290,7 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
     int hard_end = 0;                  /* where the last try split past HARD_FACTOR ended (grid units) */
     int onset = -1;                    /* a located touch-down's cell: the next take ends at it */
     int located = 0;                   /* this try ends at a located onset (it stands for the whole step) */
+    int walk = 0;                      /* a located onset cell was taken: the walk back (fs_walk_size) */
     while (pos < MAX_SPLIT) {
         double ts = t + h * pos / MAX_SPLIT, hs = size == MAX_SPLIT ? h : h * size / MAX_SPLIT, ratio;
         if (q->hA != hs || (q->A == q->bare && !fs_ahead(q, hs))) {
@@ -2303,7 +2353,11 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         }
     take:
         /* a sub-step that ends before a hard failure's end (below) and changes no regime */
-        quiet = pos + size < hard_end && !fs_switched(q);
+        sw = fs_switched(q);
+        quiet = pos + size < hard_end && !sw;
+        /* the walk back grows from this take's ratio: no regime change in it, or only the landed
+         * contacts pressing in */
+        grow = walk && split < INFINITY && ratio >= 0.0 && (!sw || (sw == FS_OTHER && fs_pressing_in(q)));
         before = INFINITY;
         q->st->nlu++;
         pos += size;
@@ -2322,12 +2376,17 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
             xs = q->xs;
             if (pos == onset) {                 /* the located onset cell next */
                 size = 1;
-            } else if ((size & (size - 1)) == 0 && pos % size == 0) {
-                if (pos % (2 * size) == 0) size *= 2;
-            } else {                            /* back on the halving grid */
-                int p = 1;
-                while (pos % (2 * p) == 0 && 2 * p <= size) p *= 2;
-                size = p;
+                walk = 1;
+            } else {
+                int grid = size;
+                if ((size & (size - 1)) == 0 && pos % size == 0) {
+                    if (pos % (2 * size) == 0) grid = 2 * size;
+                } else {                        /* back on the halving grid */
+                    int p = 1;
+                    while (pos % (2 * p) == 0 && 2 * p <= size) p *= 2;
+                    grid = p;
+                }
+                size = grow ? fs_walk_size(pos, size, grid, ratio, split) : grid;
             }
             if (pos > onset) onset = -1;
             if (size > MAX_SPLIT - pos) size = MAX_SPLIT - pos;
