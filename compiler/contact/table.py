@@ -366,7 +366,7 @@ class PairTableSlopesInto(PairTableCall):
         state = ", ".join(printer._print(a) for a in self.args[2:2 + t.nstate])
         # the block's length too: NAME_implicit_batch's lanes (compiler/emit/batch.py) gather it
         return (f"eomc_pairs_slopes((const double[{t.nstate}]){{{state}}}, {_array(self.args[2 + t.nstate:], printer)}, "
-                f"0, &PT_[0], &out[{int(self.args[1])}], {SLOPE_OUTPUTS * t.npoints})")
+                f"0, &PT_[0], &out[{int(self.args[1])}], {SLOPE_OUTPUTS * t.npoints}, {int(KEPT_BLOCK)})")
 
 
 def slopes_into(program, group):
@@ -591,9 +591,11 @@ def _loop(t, mode):
     elif into:
         L.append("/* body-body pairs' loop for NAME_implicit (compiler/contact/table.py): eomc_pairs' outputs with "
                  "full = 0, and per contact point depth, p, v_B - v_A, K, C into slo[0 .. nslo) (0 where a pair is "
-                 "skipped); returns the sum of what it wrote there (finite: the whole block is, FINITE_BY_SUM) */")
+                 "skipped); returns the sum of what it wrote there (finite: the whole block is, FINITE_BY_SUM).  "
+                 "kept = 0: the block is zeroed first; 1: it holds what this loop wrote there at its last call (or "
+                 "zeros, or NaNs), and only the records written then are zeroed again (KEPT_BLOCK) */")
         L.append("static double eomc_pairs_slopes(const double *in, const double *pars, int full, double *out, "
-                 "double *slo, int nslo)\n{")
+                 "double *slo, int nslo, int kept)\n{")
     elif slopes:
         L.append("/* body-body pairs' loop for NAME_implicit (compiler/contact/table.py): eomc_pairs' outputs with "
                  "full = 0, then per contact point depth, p, v_B - v_A, K, C (0 where a pair is skipped) */")
@@ -612,7 +614,8 @@ def _loop(t, mode):
     L.append(f"    for (k = 0; k < (full ? {t.noutput} : {t.nwrench}); ++k) out[k] = 0.0;")
     if into:
         L.append("    double chk = 0.0;")
-        L.append("    for (k = 0; k < nslo; ++k) slo[k] = 0.0;")
+        L.append(f"    int qs[{max(sum(1 for p in t.pairs if p[0] == rid) for rid in {p[0] for p in t.pairs})}], nb, i;")
+        L.append("    if (!kept) for (k = 0; k < nslo; ++k) slo[k] = 0.0;")
     elif slopes:
         L.append(f"    for (k = {t.noutput}; k < {t.noutput + SLOPE_OUTPUTS * t.npoints}; ++k) out[k] = 0.0;")
     if dot:
@@ -632,7 +635,12 @@ def _loop(t, mode):
         nout = nw.routine_outputs(rid)
         ntape = len(nw.tape_of(rid)) if dot or tape else 0
         need = nout + ntape + npts * (nlaw + nlt)      # a pair's routine tapes
-        L.append(f"    for (q = 0; q < {count}; ++q) {{  /* {name} pairs */")
+        if into:    # the ball test first, over every pair without a branch (_balls_first)
+            L += _balls_first(name, count, npts)
+            L.append(f"    for (i = 0; i < nb; ++i) {{  /* {name} pairs past the ball test */")
+            L.append("        q = qs[i];")
+        else:
+            L.append(f"    for (q = 0; q < {count}; ++q) {{  /* {name} pairs */")
         L.append(f"        const int *P = eomc_pairs_{name}_i[q];")
         L.append(f"        const double *D = eomc_pairs_{name}_d[q];")
         if dot:
@@ -644,12 +652,25 @@ def _loop(t, mode):
             L.append("        int on = 0;")
             L.append("        if (!np) np = nl;")
             L += _ball_lines()
+        elif into:
+            L.append(f"        double np[{nout}];")
+            L += _ball_lines()[:1]                  # (the ball test ran: e and |e|² for the bound alone)
+            if SEGMENT_BOUND and nw.kinds_of(rid) in _SEGMENT_BOUND:
+                L += _ball_lines()[1:2]
+            if SEGMENT_BOUND and nw.kinds_of(rid) == ("capsule", "capsule"):
+                L.append("        const double dd = e0 * e0 + e1 * e1 + e2 * e2;")
         else:
             L.append(f"        double np[{nout}];")
             L += _ball_lines()[:2] + _far_bounds(t, npts)
-        L += _axes(dot, ["    " + x for x in _centre_lines("sh", off, True)] if dot else ())
-        if not dot and not tape and SEGMENT_BOUND:
+        bound = not dot and not tape and SEGMENT_BOUND and nw.kinds_of(rid) in _SEGMENT_BOUND
+        if bound:   # the segment bound reads the capsules' axes alone: the rest of a frame after it
+            L += _axes(dot, part=_bound_axes(nw.kinds_of(rid)))
             L += _segment_bound_lines(nw.kinds_of(rid), depths=not slopes)
+            L += _axes(dot, part="rest")
+        elif not dot and not tape:
+            L += _axes(dot, part="rest")
+        else:
+            L += _axes(dot, ["    " + x for x in _centre_lines("sh", off, True)] if dot else ())
         if dot:
             L += _ball_lines()
             L += _still_lines(off)
@@ -688,7 +709,10 @@ def _loop(t, mode):
             L.append("            for (k = 0; k < 3; ++k) sl[1 + k] = pp[k];")
             if into:
                 L.append("            chk += (sl[0] + sl[1]) + (sl[2] + sl[3]);")
-        L.append("            if (!full && -pp[6] > 0) continue;")
+        if into:    # (kept: its slopes from the last call, when it touched then)
+            L.append(f"            if (!full && -pp[6] > 0) {{ if (kept) for (k = 4; k < {SLOPE_OUTPUTS}; ++k) sl[k] = 0.0; continue; }}")
+        else:
+            L.append("            if (!full && -pp[6] > 0) continue;")
         if not dot and not tape:   # full = 2, a point apart by more than the pad: F_n, friction 0; clip >= -δ
             L.append(f"            if (full == 2 && -pp[6] > {_fmt(BROAD_PAD)}) {{ po[5] = -pp[6]; continue; }}")
         if not dot and not tape and not slopes:
@@ -742,12 +766,46 @@ def _loop(t, mode):
 SEGMENT_BOUND = True
 _SEGMENT_BOUND = (("capsule", "capsule"), ("sphere", "capsule"), ("capsule", "sphere"))
 
+# NAME_implicit_var's loop (PairTableSlopesInto) is called with kept = KEPT_BLOCK: it does not zero
+# its slope block first but zeroes the records the last call wrote (their depth or p not 0; a
+# NaN-filled buffer's too: _balls_first), and of a pair whose narrow phase finds it apart the
+# slopes.  Why: the fixed step calls NAME_implicit_var again and again into the same two buffers,
+# and on gymnasium's humanoid the zeroing wrote the block's 2725 doubles at every call (~105 ns of
+# its ~3.9 us; 0.58 of 109 pairs touch: report-humcall.md, session 30).  The outputs are the
+# zeroing loop's, to the bit, given a buffer NAME_implicit_const and the step's NaN fill or this
+# loop wrote before: a record whose depth and p were all exactly 0 at the last call keeps its other
+# 21 entries then (its depth is 0: no reader reads them; the header says so).  NAME_implicit (its
+# const, the block zeroed, then var: any buffer) and NAME_implicit_batch's lanes (kept = 0) zero it.
+KEPT_BLOCK = True
+
 
 def _segment_reach(t, p):
     """A pair's radii (its shapes' size[0]) plus its margin and BROAD_PAD: the distance of the
     segments past which its narrow phase's δ is below -BROAD_PAD."""
     from .pairs import BROAD_PAD
     return t.shapes[p[1]][3][0] + t.shapes[p[2]][3][0] + p[3] + BROAD_PAD
+
+
+def _balls_first(name, count, npts):
+    """C of eomc_pairs_slopes (into): per pair of a kind, its records zeroed when the last call wrote
+    them (kept = 1, KEPT_BLOCK: their depth or p not 0, a NaN-filled buffer's too; else they are
+    zeros), and its ball test, the pairs that pass listed in qs[0 .. nb) without a branch; the kind's
+    loop then runs over those.  Why: on gymnasium's humanoid 16 of the 109 pairs pass the test a call,
+    the test's branch taken or not pair by pair; and a skipped pair's records are checked here, once."""
+    return [
+        "    nb = 0;",
+        f"    for (q = 0; q < {count}; ++q) {{  /* {name} pairs: the ball test */",
+        f"        const int *P = eomc_pairs_{name}_i[q];",
+        "        const double *ca = cen + 3 * P[0], *cb = cen + 3 * P[1];",
+        "        const double e0 = cb[0] - ca[0], e1 = cb[1] - ca[1], e2 = cb[2] - ca[2];",
+        f"        if (kept) for (m = 0; m < {npts}; ++m) {{",
+        f"            double *sl = slo + {SLOPE_OUTPUTS} * (P[3] + m);",
+        "            if (sl[0] != 0.0 || sl[1] != 0.0 || sl[2] != 0.0 || sl[3] != 0.0)",
+        f"                for (k = 0; k < {SLOPE_OUTPUTS}; ++k) sl[k] = 0.0;",
+        "        }",
+        "        qs[nb] = q;",
+        f"        nb += !(e0 * e0 + e1 * e1 + e2 * e2 > eomc_pairs_{name}_d[q][1]);",
+        "    }"]
 
 
 def _segment_bound_lines(kinds, depths=False):
@@ -850,9 +908,41 @@ def _centres(ns, off, dot):
             + _centre_lines("s", off, dot) + ["    }"])
 
 
-def _axes(dot, centres=()):
+def _bound_axes(kinds):
+    """:func:`_axes`' ``part`` before a kind's segment bound: the capsules' (P[j]'s) axes."""
+    return tuple(j for j, k in enumerate(kinds) if k == "capsule")
+
+
+def _axes(dot, centres=(), part=None):
     """C lines placing a pair's two shapes' axes once (``dot``: and their tangents), after the
-    lines ``centres`` (the twin places their centres there too)."""
+    lines ``centres`` (the twin places their centres there too).  ``part`` (the primal loops, a
+    kind with a segment bound): a tuple of P's indices, the third row alone (a capsule's axis:
+    what the bound reads) of those shapes, have[] 1; "rest": the first two rows too, have[] 2.
+    Each entry the same expression either way (the same bits).  Why: of the humanoid's 16 pairs
+    a call that pass the ball test 1.5 reach the narrow phase (report-humcall.md: the frames
+    ~115 ns of its ~3.9 us NAME_implicit_var)."""
+    if part is not None:
+        expr = ("ax[9 * sh + 3 * k + w] = b < 0 ? r[3 * w + k] : in[18 * b + 3 + w] * r[k]"
+                " + in[18 * b + 6 + w] * r[3 + k] + in[18 * b + 9 + w] * r[6 + k];")
+        head = ["            const int sh = P[j], b = eomc_pairs_sbody[sh];",
+                "            const double *r = eomc_pairs_srot[sh];"]
+        if part == "rest":
+            return ["        for (j = 0; j < 2; ++j) {", *head,
+                    "            if (have[sh] == 2) continue;",
+                    "            for (k = 0; k < (have[sh] ? 2 : 3); ++k) for (w = 0; w < 3; ++w)",
+                    f"                {expr}",
+                    "            have[sh] = 2;",
+                    "        }"]
+        if not part:
+            return []
+        js = f"j = {part[0]}; j < {part[-1] + 1}; ++j"
+        return [f"        for ({js}) {{", *head,
+                "            if (have[sh]) continue;",
+                "            have[sh] = 1;",
+                "            k = 2;",
+                "            for (w = 0; w < 3; ++w)",
+                f"                {expr}",
+                "        }"]
     L = ["        for (j = 0; j < 2; ++j) {",
          "            const int sh = P[j], b = eomc_pairs_sbody[sh];",
          "            const double *r = eomc_pairs_srot[sh];",

@@ -101,10 +101,11 @@ _SCRATCH_DECL = re.compile(r"^(\s+)double ([A-Za-z_]\w*)\[(\d+)\];$")
 _CALL_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\((.*)\);$")
 # the body-body pairs' table loop (compiler/contact/table.py; NAME_implicit's: its slopes variant):
 # one call on a compound literal of its inputs, the law parameters, full, and the output array;
-# NAME_implicit's then the slope block's place in out[] and its length (table.PairTableSlopesInto)
+# NAME_implicit's then the slope block's place in out[], its length and whether the loop keeps it
+# (table.PairTableSlopesInto, KEPT_BLOCK: the lanes' loop is called with 0, each lane's block zeroed)
 _PAIRS_LINE = re.compile(r"^(\s+)const double (t\d+) = (eomc_pairs|eomc_pairs_slopes)\(\(const double\[(\d+)\]\)\{(.*)\}, "
                          r"&([A-Za-z_]\w*)\[(\d+)\], (0|1), &([A-Za-z_]\w*)\[(\d+)\]"
-                         r"(?:, &([A-Za-z_]\w*)\[(\d+)\], (\d+))?\);$")
+                         r"(?:, &([A-Za-z_]\w*)\[(\d+)\], (\d+), (?:0|1))?\);$")
 _VOID_TEMP = re.compile(r"^\s+\(void\)t\d+;$")
 _GUARD_LINE = re.compile(r"^(\s+)if \((.*)\) return (EOMC_[A-Z_]+);$")
 # (or NAME_implicit's short form when its pairs' loop sums what it wrote: compiler/tree/emit.finite_return)
@@ -796,13 +797,13 @@ class _Rewriter:
         zero = (f"{indent}for (l_ = 0; l_ < {nout if nput is None else nput}; l_++) {array}[{first} + l_] = (eomc_vd){{0}};\n"
                 + (f"{indent}{'if (!rows_) ' if rows else ''}for (l_ = 0; l_ < {nslopes}; l_++) "
                    f"{slopes}[{slopes_first} + l_] = (eomc_vd){{0}};\n" if slopes else ""))
-        into = (f"{indent}    double slo_[{nslopes}];   /* the loop zeroes it first */\n" if slopes else "",
-                f", slo_, {nslopes}" if slopes else "",
+        into = (f"{indent}    double slo_[{nslopes}];   /* the loop zeroes it first (kept = 0) */\n" if slopes else "",
+                f", slo_, {nslopes}, 0" if slopes else "",
                 f"{indent}    {self.prefix}_put_lane({slopes} + {slopes_first}, slo_, {nslopes}, l_);\n"
                 if slopes else "")
         if rows:    # the block into the lane's row (rows_), else into slo_ and its lane as above
             into = (into[0] + f"{indent}    double *const dst_ = rows_ ? rows_[l_] + {slopes_first} : slo_;\n",
-                    f", dst_, {nslopes}",
+                    f", dst_, {nslopes}, 0",
                     f"{indent}    if (!rows_) {self.prefix}_put_lane({slopes} + {slopes_first}, slo_, {nslopes}, l_);\n"
                     f"{indent}    else if (!({name} - {name} == 0.0)) {{   /* the sum not finite: the block entry by entry */\n"
                     f"{indent}        int e_;\n"

@@ -556,6 +556,7 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
             rendered += _constants_apart(name, fn, consts[1], lines, parts, lean)
             meta_batch.setdefault("const_outputs", {})[fn] = sum(1 for line in full if line in consts[0])
         else:
+            lines, parts = _block_zeroed(lines), [_block_zeroed(part) for part in parts]
             rendered.append({"prototype": f"{lean} {prototype(name, fn)}" if lean else prototype(name, fn),
                              "body": void_unused(fn, lines), "parts": parts, "lean": bool(lean)})
         op_counts[fn] = (dict(op_counts[GENERATED_LIKE[fn]]) if fn in GENERATED_LIKE else
@@ -594,15 +595,32 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
 def _constants_apart(name, fn, const_lines, lines, parts, lean):
     """The rendered NAME_fn_const (the constant outputs), NAME_fn_var (the body without them) and
     NAME_fn (the two in turn: what it always was, for every caller that does not keep its
-    output buffer).  The fixed step calls NAME_fn_const once per buffer and run, then
+    output buffer; with the pairs' slope block zeroed between them when NAME_fn_var's loop keeps
+    it, contact/table.KEPT_BLOCK).  The fixed step calls NAME_fn_const once per buffer and run, then
     NAME_fn_var per step (runtime/c/eomc_integrators.h, eomc_implicit.terms_const)."""
     var = prototype(name, fn).replace(f" {name}_{fn}(", f" {name}_{fn}_var(", 1)
     args = ", ".join(a for _, a in SIGNATURES[fn])
+    block = [m.groups() for text in [*lines, *parts] for m in _KEPT_CALL.finditer(text)]
+    zero = "".join(f"    for (int k = 0; k < {n}; ++k) out[{off} + k] = 0.0;\n" for off, n in block)
     return [{"prototype": f"void {name}_{fn}_const(double *out)", "body": "\n".join(const_lines), "parts": []},
             {"prototype": f"{lean} {var}" if lean else var, "body": void_unused(fn, lines), "parts": parts,
              "lean": bool(lean)},
             {"prototype": prototype(name, fn),
-             "body": f"    {name}_{fn}_const(out);\n    return {name}_{fn}_var({args});", "parts": []}]
+             "body": f"    {name}_{fn}_const(out);\n{zero}    return {name}_{fn}_var({args});", "parts": []}]
+
+
+# the pairs' loop writing its slope block into out[] and keeping it (contact/table.KEPT_BLOCK): its
+# place and length
+_KEPT_CALL = re.compile(r"eomc_pairs_slopes\(.*, &out\[(\d+)\], (\d+), 1\);$", re.M)
+
+
+def _block_zeroed(text):
+    """``text`` (a body's lines, or a part's C) with the pairs' loop told to zero its slope block
+    (kept = 0): NAME_implicit with no constant outputs apart has no NAME_implicit_var, and its
+    caller's buffer may hold anything."""
+    if isinstance(text, list):
+        return [_block_zeroed(t) for t in text]
+    return re.sub(r"(eomc_pairs_slopes\(.*, &out\[\d+\], \d+), 1\);$", r"\1, 0);", text, flags=re.M)
 
 
 def const_prototypes(name, meta):
@@ -796,7 +814,8 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
                                    "nvel", "work_size", "eomc_version")}
     header = env.get_template("model.h.j2").render(
         name=name, prototypes=[prototype(name, f) for f in fns]
-        + ([f"int {name}_pose_count(void)"] if "poses" in fns else []) + _const_docs(name, meta)
+        + ([f"int {name}_pose_count(void)"] if "poses" in fns else [])
+        + _const_docs(name, meta, any(_KEPT_CALL.search(t) for f in rendered for t in [f["body"], *f["parts"]]))
         + ([f"int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const double *R, "
             f"double *XDOT, int *status, double *work)"] if "rhs_batch" in fns else []),
         vectors=_vector_docs(meta), quaternions=meta.get("quaternions", ()), **common)
@@ -816,8 +835,9 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
                           metadata=meta)
 
 
-def _const_docs(name, meta):
-    """const_prototypes with the header's word on them."""
+def _const_docs(name, meta, kept=False):
+    """const_prototypes with the header's word on them (``kept``: NAME_implicit_var keeps its pairs'
+    slope block, contact/table.KEPT_BLOCK)."""
     protos = const_prototypes(name, meta)
     if not protos:
         return []
@@ -825,4 +845,10 @@ def _const_docs(name, meta):
             f" * first writes the outputs that are constants ({meta['const_outputs']['implicit']} of "
             f"{meta['implicit']['layout']['size']}), the second the rest.\n"
             f" * A caller that calls it again and again into the same out[] (the fixed step: once per run)\n"
-            f" * may call {name}_implicit_const once and then {name}_implicit_var alone. */\n" + protos[0]] + protos[1:]
+            f" * may call {name}_implicit_const once and then {name}_implicit_var alone"
+            + (".\n * Its body-body pairs' slope block (a record of 25 a pair point: depth, p, v, K, C) is kept\n"
+               f" * between calls: {name}_implicit_var zeroes only the records it wrote at its last call into that\n"
+               " * out[] (NaN-filled or zeroed first: all of them).  A record whose depth is not > 0 is out of\n"
+               " * touch: read its depth alone (a record written with depth and p all exactly 0 keeps its\n"
+               " * other entries); " + f"{name}_implicit zeroes the block. */\n"
+               if kept else ". */\n") + protos[0]] + protos[1:]

@@ -135,3 +135,51 @@ def test_the_verdict_is_every_entrys_at_states_in_and_out_of_touch(limbs):
                 assert s != 0
                 poisoned += 1
     assert pressed > 0 and poisoned > 0
+
+
+# NAME_implicit_var keeps the block between calls into one out[] (contact/table.KEPT_BLOCK): it zeroes
+# only the records its last call wrote there, not the whole block.  Oracle: NAME_implicit (its
+# constants, the block zeroed, then NAME_implicit_var) into a fresh buffer at the same state, bit for
+# bit, along a walk of states in and out of touch, through a call refused for a NaN parameter.
+
+def _var(m, x, out, p=None):
+    ffi = m.ffi
+    fp = ffi.addressof(m.model_lib, f"{m.name}_implicit_var")
+    pp = m._default_p if p is None else ffi.from_buffer("double[]", p)
+    return fp(0.0, ffi.from_buffer("double[]", np.ascontiguousarray(x, dtype=float)), pp, ffi.NULL,
+              ffi.from_buffer("double[]", out), ffi.NULL)
+
+
+def test_var_keeps_the_block_and_equals_the_whole_call(limbs):
+    m, source = limbs
+    assert "&out[" in source and ", 1);" in [line for line in source.splitlines() if "= eomc_pairs_slopes(" in line][0]
+    info = m.metadata["implicit"]
+    at, size = info["layout"]["contact"], info["layout"]["size"]
+    names, rng = list(m.state_names), np.random.default_rng(11)
+    p = np.array(m.ffi.unpack(m._default_p, len(m.param_names)), dtype=float)
+    kept = np.full(size, np.nan)                  # the fixed step's buffer: NaN, then the constants
+    m.ffi.addressof(m.model_lib, f"{m.name}_implicit_const")(m.ffi.from_buffer("double[]", kept))
+    pressed = lifted = refused = 0
+    was = None
+    for i in range(120):
+        x = np.zeros(m.nx)
+        x[names.index("q_joint0_z")] = 0.3
+        x[names.index("q_joint3_z")] = 0.3
+        x[names.index("q_joint3_y")] = rng.uniform(-0.12, 0.3) if i % 3 else rng.uniform(-0.12, -0.06)
+        x += rng.normal(0, 0.01, m.nx)
+        o = dict(m.outputs(0.0, x))
+        hit = [k[3:] for k, v in o.items() if k.startswith("Fn_") and v > 0 and f"vs_{k[3:]}" in m.param_names]
+        if i % 17 == 5 and hit:                   # a refused call leaves NaN slopes in its record
+            q = p.copy()
+            q[list(m.param_names).index(f"vs_{hit[0]}")] = np.nan
+            assert _var(m, x, kept, q) != 0
+            refused += 1
+            continue
+        status, whole = _implicit(m, x, rng.normal(size=size))     # whatever the buffer held
+        assert _var(m, x, kept) == status == 0
+        assert kept.tobytes() == whole.tobytes()
+        touch = whole[at + 25 * np.arange(len(info["contacts"]))] > 0
+        pressed += touch.sum()
+        lifted += was is not None and (was & ~touch).any()
+        was = touch
+    assert pressed > 0 and lifted > 0 and refused > 0
