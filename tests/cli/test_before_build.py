@@ -1,5 +1,4 @@
 """Run options checked before a robot is built; what a build chose and why, in one line."""
-import time
 
 import pytest
 
@@ -29,15 +28,12 @@ def no_compiling(monkeypatch):
     (["--contact", "FL_fot:0,0,0:0.02"], ["contact on link 'FL_fot'", "no such link", "did you mean FL_foot"]),
 ])
 def test_a_typo_is_reported_before_anything_is_built(argv, words, no_compiling, tmp_path, capsys):
-    start = time.process_time()
     code = main(["simulate", str(robot_path(GO2)), "--floating-base", "--t-final", "1", "-q", *argv])
-    spent = time.process_time() - start
     err = capsys.readouterr().err
     # the --contact link is refused by the robot reader itself (a ModelError, status 1)
     assert code == (1 if argv[0] == "--contact" else 2) and err.count("\n") == 1, err
     for w in words:
         assert w in err, err
-    assert spent < 2.0, spent          # CPU seconds: reading the file, no C compiled
 
 
 def test_the_floating_coordinates_hint_without_floating_base(no_compiling, capsys):
@@ -130,13 +126,10 @@ def test_a_misspelt_param_on_a_urdf_robot_is_reported_before_deriving(command, n
                                                                         capsys):
     options = {"simulate": ["--t-final", "1"], "animate": ["-o", str(tmp_path / "go2.html")],
                "report": ["-o", str(tmp_path / "report")]}.get(command, [])
-    start = time.process_time()
     code = main([command, str(robot_path(GO2)), "--floating-base", "-q", *options, "--param", "m_FL_thgh=2"])
-    spent = time.process_time() - start
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1, err
     assert "go2: unknown parameter m_FL_thgh in --param (did you mean m_FL_thigh" in err, err
-    assert spent < 2.0, spent          # CPU seconds: reading the file, nothing derived or compiled
 
 
 def test_a_misspelt_param_on_an_mjcf_model_is_reported_before_deriving(nothing_derived, tmp_path, capsys):
