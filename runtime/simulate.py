@@ -472,6 +472,8 @@ def _options(ffi, a, implicit=None):
         opt.nquat, opt.quat = len(a["quat"]), a["quat"]
     if implicit is not None:
         opt.implicit = implicit
+    if a.get("stop") is not None:       # an int* another thread may set to end the run (eomc check's
+        opt.stop = a["stop"]            # references, runtime/check_references.py); kept alive by ``a``
     return opt
 
 

@@ -205,6 +205,7 @@ typedef struct ctx {
     double *ev_x;            /* its state (in the events' scratch) */
     int abort;               /* nonzero: a callback failed, Ctrl-C or SIGTERM -- the run's status, no retry */
     long sigint0;            /* g_sigint at the start of the run */
+    const int *stop;         /* eomc_options.stop: a caller's flag that ends the run, or NULL */
     int nsw;                 /* switching functions (events marked switching + linear ones) */
     int nswe;                /* of which events (a model call each) */
     int gnew_ok;             /* the events' gnew already holds g at the step's end */
@@ -290,10 +291,12 @@ void eomc_interrupt_disarm(void) { }
 
 long eomc_interrupt_count(void) { return (long)g_sigint; }
 
-/* Nonzero when the run must stop now (Ctrl-C or SIGTERM, or a callback that failed). */
+/* Nonzero when the run must stop now (Ctrl-C or SIGTERM, a callback that failed, or the
+ * caller's eomc_options.stop set from another thread: read through volatile, never cached). */
 static int aborted(ctx *c)
 {
-    if (!c->abort && g_sigint != c->sigint0) c->abort = EOMC_ABORTED;
+    if (!c->abort && (g_sigint != c->sigint0 || (c->stop && *(const volatile int *)c->stop)))
+        c->abort = EOMC_ABORTED;
     return c->abort;
 }
 
@@ -525,7 +528,7 @@ static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
 {
     c->m = m; c->p = p; c->nr = nr; c->rt = rt; c->rv = rv; c->st = st; c->n = m->nx;
     c->pj = NULL; c->stab = 0.0; c->fb = NULL; c->fbJ = NULL; c->fbK = NULL; c->Kt = NULL; c->ev = NULL; c->ev_t = 0.0; c->ev_x = NULL;
-    c->abort = 0; c->sigint0 = g_sigint;
+    c->abort = 0; c->sigint0 = g_sigint; c->stop = NULL;
     c->nsw = 0; c->nswe = 0; c->gnew_ok = 0; c->sw_cuts = 0; c->sw_hp = 0.0;
     c->nquat = 0; c->quat = NULL;
     c->n_err = m->nx; c->n_fin = m->nx; c->sg = NULL; c->istop = 0;
@@ -3279,6 +3282,7 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
         c.nquat = opt->nquat; c.quat = opt->quat;
         if (s == EOMC_OK) unit_quats(&c, x, NULL);
     }
+    c.stop = opt->stop;
     ow.n = n_eval; ow.i = 0; ow.nx = m->nx; ow.t = t_eval; ow.x = x_out;
     ow.ld = sg && sg->ld_out > 0 ? sg->ld_out : m->nx;
     if (pj.on) s = project_state(&c, &pj, t0, x);

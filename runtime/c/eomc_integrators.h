@@ -186,6 +186,10 @@ typedef struct eomc_options {
                             that value at each step's end from the terms it made there */
     int nspring;         /* with watch_output > 0: the limit springs the output leaves out, whose */
     const eomc_spring *spring;  /* stored energy the watch adds to it (the total); 0, NULL: none */
+    const int *stop;     /* NULL, or a flag another thread may set while the run goes on: once
+                            it is nonzero the run stops at its next model evaluation with
+                            EOMC_ABORTED, its rows so far written (as on Ctrl-C).  `eomc check`
+                            stops its two references where they part (runtime/stability.py) */
 } eomc_options;
 
 typedef struct eomc_stats {
