@@ -15,5 +15,5 @@ The lowest layer: the compiler builds on it, nothing in it depends on the compil
   build cache's entries and locks, usable without the compiler), ``sweep.py`` (``eomc.sweep``: chunks
   of ``simulate_many`` on any map-like executor, Dask included)
 - judging: ``reference.py``, ``report.py`` (measure) -> ``report_output.py`` (present),
-  ``stability.py`` (``eomc check``)
+  ``stability.py`` (``eomc check``; its two references run at once: ``check_references.py``)
 """

@@ -13,6 +13,8 @@ import numpy as np
 
 from eomc.runtime.errors import EomcError
 
+from .check_references import apart as ref_apart
+from .check_references import run_references
 from .progress import stage
 from .simulate import simulate
 
@@ -174,21 +176,16 @@ def _run(model, x0, p, t_final, t_eval, method, rtol, atol, max_steps):
                         t_eval=t_eval, max_steps=max_steps, raise_on_failure=False)
 
 
-def _reference_method(model, x0, p, t_final, t_eval, tol, max_steps):
-    """(method, run) of the tighter reference: dop853 (cheapest at tight tolerances), radau
-    if that proves stiff, and from the start on ground contacts (as method="auto"): on
-    gymnasium's ant DOP853 at 1e-12 ended 2.4e-3 away from Radau at 1e-10, 1e-11 and 1e-12
-    (which agree to 2e-9): across the contacts' friction and push-only limits an explicit
-    reference is not the tight one."""
+def _reference_method(model):
+    """(implicit, method) of the references: dop853 (cheapest at tight tolerances), and radau
+    from the start on ground contacts (as method="auto"; a dop853 pair whose looser run proves
+    stiff is run again with radau, check_references.run_references): on gymnasium's ant DOP853
+    at 1e-12 ended 2.4e-3 away from Radau at 1e-10, 1e-11 and 1e-12 (which agree to 2e-9):
+    across the contacts' friction and push-only limits an explicit reference is not the tight
+    one."""
     from .switching import find_switches
     implicit = model.c_model.jac_x != model.ffi.NULL
-    method = "radau" if implicit and find_switches(model).contacts else "dop853"
-    with stage("looser reference"):
-        ref = _run(model, x0, p, t_final, t_eval, method, *tol, max_steps)
-        if ref.status in (6, 7) and implicit and method != "radau":
-            method = "radau"
-            ref = _run(model, x0, p, t_final, t_eval, method, *tol, max_steps)
-    return method, ref
+    return implicit, "radau" if implicit and find_switches(model).contacts else "dop853"
 
 
 def _unreachable(what, method, tol, ref, t_final, rtol):
@@ -223,36 +220,38 @@ def _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps, stiff=False
     a motion that amplifies differences (a collapse onto many contacts, a chaotic pendulum)
     from when on no tight run can tell a right method from a wrong one.  A method is judged
     where the references agree to AGREE x tolerance (a tenth of what the method is allowed);
-    past that time its difference from them measures the problem's conditioning, and the
-    check says so instead of failing the method.  A reference that stops (too stiff or too
+    past that time its difference from them would measure the problem's conditioning: the two
+    run at once, compared as they go, and stop there (check_references.py; G1's parted at
+    t = 1.15 of 10), and the check says up to when it judged and why, instead of failing the
+    method.  A method still runs to t_final (one that stops fails).  A reference that stops (too stiff or too
     long at its tolerance: Go2 resting on 124 contact points at rtol 1e-12) leaves the
     accuracy checks inconclusive, with what to change."""
     t_eval = np.linspace(0.0, t_final, 201)
     tols = [(max(rtol / fr, REF_FINEST), max(atol / fa, 1e-15)) for fr, fa in REF_TOLS]
-    ref_method, loose = _reference_method(model, x0, p, t_final, t_eval, tols[0], max_steps * 10)
-    if loose.status:      # e.g. a singular configuration or too many steps: say where and why
-        return [_unreachable("reference", ref_method, tols[0], loose, t_final, rtol)], {"reference": loose}
-    with stage("reference"):
-        ref = _run(model, x0, p, t_final, t_eval, ref_method, *tols[1], max_steps * 10)
-    if ref.status:
-        return ([_unreachable("reference", ref_method, tols[1], ref, t_final, rtol)],
-                {"reference": loose})
-    scale = atol + rtol * np.abs(ref.x)
-    apart = np.max(np.abs(loose.x - ref.x) / scale, axis=1)      # per output time, in tolerances
-    beyond = np.flatnonzero(apart > AGREE)
-    h = int(beyond[0]) if beyond.size else t_eval.size     # the references agree on [0, t_eval[h])
-    refs = (f"{ref_method} at rtol={tols[1][0]:g} (agreeing with rtol={tols[0][0]:g} to "
-            f"{np.max(apart[:h]) if h else 0.0:.3g} x tolerance{'' if h == t_eval.size else f' until t={t_eval[h]:.4g}'})")
+    implicit, method = _reference_method(model)
+    refs = run_references(model, x0, p, t_final, t_eval, method, tols, rtol, atol, max_steps * 10,
+                          AGREE, implicit)
+    ref_method, loose, ref = refs.method, refs.loose, refs.tight
+    if refs.failed is not None:   # e.g. a singular configuration or too many steps: say where and why
+        tol = tols[0] if refs.failed is loose else tols[1]
+        return [_unreachable("reference", ref_method, tol, refs.failed, t_final, rtol)], {"reference": loose}
+    apart = ref_apart(loose.x[:refs.rows], ref.x[:refs.rows], rtol, atol)   # per output time, in tolerances
+    parted = refs.parted is not None
+    h = refs.parted if parted else refs.rows     # the references agree on the first h output times
+    refs_text = (f"{ref_method} at rtol={tols[1][0]:g} (agreeing with rtol={tols[0][0]:g} to "
+                 f"{np.max(apart[:h]) if h else 0.0:.3g} x tolerance{f' until t={t_eval[h]:.4g}' if parted else ''})")
     checks = [Check("reference", f"two references ({ref_method} at rtol={tols[0][0]:g} and "
                     f"{tols[1][0]:g}) agree to {AGREE:g} x tolerance over [0, t_final]",
-                    _horizon_text(apart, t_eval, h, tols) + _stopped_text(ref), True)]
+                    _horizon_text(apart, t_eval, h, parted) + _stopped_text(ref), True)]
     if h < MIN_WINDOW:
         checks.append(Check("accuracy", f"the references agree long enough to judge a method "
-                            f"({MIN_WINDOW} output times)", _horizon_text(apart, t_eval, h, tols) +
+                            f"({MIN_WINDOW} output times)", _horizon_text(apart, t_eval, h, parted) +
                             f": too early to judge the methods; check a shorter span (--t-final "
                             f"{t_eval[max(h, 1)]:.3g}: the motion before it diverges)", False,
                             inconclusive=True))
         return checks, {"reference": ref}
+    # the convergence runs need only the judged span: [0, the last output time before the parting]
+    judged = (t_eval[h - 1], t_eval[:h]) if parted else (t_final, t_eval)
     runs, same = {}, _same_runs(model, rtol, methods)
     finer_runs = _finer_runs(ref_method, loose, tols[0], rtol, atol)
     for method in methods:
@@ -262,8 +261,7 @@ def _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps, stiff=False
         if res.status:      # a method that stopped did not do the job: a failed check (or [stiff])
             checks.append(_stopped(method, res, stiff))
             continue
-        errs = np.max(np.abs(res.x - ref.x) / scale, axis=1)
-        err_ratio = float(np.max(errs[:h]))
+        err_ratio = float(np.max(ref_apart(res.x[:h], ref.x[:h], rtol, atol)))
         passed, how = err_ratio <= GLOBAL_FACTOR, ""
         if not passed and err_ratio <= MISSED_FACTOR:
             # Chaotic or unstable motion amplifies any local error: then the honest test
@@ -271,32 +269,36 @@ def _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps, stiff=False
             key = same["auto"] if method == "auto" and "auto" in same else method   # one run per same run
             if key not in finer_runs:
                 with stage("convergence"):
-                    finer_runs[key] = (_run(model, x0, p, t_final, t_eval, method, rtol / 100, atol / 100,
-                                            max_steps * 10), "tolerances")
+                    finer_runs[key] = (_run(model, x0, p, judged[0], judged[1], method, rtol / 100,
+                                            atol / 100, max_steps * 10), "tolerances")
             finer, tighter = finer_runs[key]
-            fine_ratio = (float(np.max((np.abs(finer.x - ref.x) / scale)[:h])) if finer.status == 0
-                          else np.inf)
+            # the looser reference, when it is this run, may have been stopped where the references
+            # part: its rows before that are whole
+            whole = finer.status == 0 or (getattr(finer, "stopped", False) and len(finer.t) >= h)
+            fine_ratio = float(np.max(ref_apart(finer.x[:h], ref.x[:h], rtol, atol))) if whole else np.inf
             passed = fine_ratio <= err_ratio / 10
             how = (f"; the motion amplifies errors, and at 100x tighter {tighter} the error is "
                    f"{fine_ratio:.3g} x tolerance ({'converging' if passed else 'NOT converging'})")
         elif not passed:
             how = f"; more than {MISSED_FACTOR:g} x tolerance: the tolerance was missed by orders of magnitude"
-        if h < t_eval.size:
-            late, late_refs = float(np.max(errs[h:])), float(np.max(apart[h:]))
-            how += (f"; after t={t_eval[h]:.4g} {late:.3g} x tolerance, where the references "
-                    f"themselves differ by {late_refs:.3g} x: there the problem's conditioning, not the "
-                    f"method, limits the comparison (not judged)")
+        if parted:
+            how += (f"; judged up to t={t_eval[h]:.4g}, where the references part: after it the problem's "
+                    f"conditioning, not the method, limits any comparison (the run itself reached "
+                    f"t_final={t_final:g})")
         if method == "auto" and same.get("auto") in methods:
             # first hour s27: a1 --floating-base --ground printed the same line for auto and radau
             # with nothing saying why
             how += f" (auto runs {same['auto']} here: the {same['auto']} run, judged once)"
-        window = "" if h == t_eval.size else f" on [0, {t_eval[h]:.4g}] where the references agree"
+        window = f" on [0, {t_eval[h]:.4g}] where the references agree" if parted else ""
         checks.append(Check(f"{method} accuracy", f"error <= {GLOBAL_FACTOR:g} x (atol + rtol |x|) "
-                            f"vs {refs}{window} (local tolerances add up), or, where the motion "
+                            f"vs {refs_text}{window} (local tolerances add up), or, where the motion "
                             f"amplifies errors (up to {MISSED_FACTOR:g} x), 10x smaller at 100x "
                             f"tighter tolerances",
                             f"{err_ratio:.3g} x tolerance, {res.stats['steps']} steps{how}", passed))
-    return checks, {"reference": ref, **runs}
+    # cond(M) along the trajectory: the reference's, or where the references stopped where they
+    # part, a method's run that reached t_final (the default's first)
+    along = next((r for r in runs.values() if r.status == 0), ref) if parted else ref
+    return checks, {"reference": along, **runs}
 
 
 def _finer_runs(ref_method, loose, loose_tol, rtol, atol):
@@ -336,12 +338,13 @@ def _stopped_text(ref):
             f"cover [0, {end:.4g}], not [0, t_final]")
 
 
-def _horizon_text(apart, t_eval, h, tols):
-    if h == t_eval.size:
-        return f"they differ by at most {np.max(apart):.3g} x tolerance"
-    return (f"they agree to {np.max(apart[:h]) if h else 0.0:.3g} x tolerance until t={t_eval[h]:.4g}, then "
-            f"differ by up to {np.max(apart[h:]):.3g} x: the motion amplifies the references' own small "
-            f"differences beyond what a method is allowed (the problem's conditioning)")
+def _horizon_text(apart, t_eval, h, parted):
+    if not parted:
+        return f"they differ by at most {np.max(apart) if apart.size else 0.0:.3g} x tolerance"
+    return (f"they agree to {np.max(apart[:h]) if h else 0.0:.3g} x tolerance until t={t_eval[h]:.4g}, where "
+            f"they differ by {apart[h]:.3g} x: the motion amplifies the references' own small differences "
+            f"beyond what a method is allowed (the problem's conditioning), so both stopped there and "
+            f"nothing after it is judged")
 
 
 def _conditioning(model, res, p):

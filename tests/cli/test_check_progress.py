@@ -6,7 +6,7 @@ import re
 import pytest
 
 from eomc.cli import main
-from eomc.runtime import progress
+from eomc.runtime import progress, stability
 from helpers import model_files
 
 LINE = re.compile(r"^eomc check pend: (.+): t = (\S+) of \[0, 300\] \((\d+) %\), (\d+) steps, \d+ s$")
@@ -24,17 +24,21 @@ def built(tmp_path_factory):
 def test_each_long_run_of_a_check_prints_lines_naming_it(built, capsys, monkeypatch):
     monkeypatch.setattr(progress, "LINE_SECONDS", 0.0)
     monkeypatch.setattr(progress, "POLL_S", 0.002)
+    # the references stop where they part (t = 105 of 300 here, s31): held together, they run to
+    # t_final, long enough for lines (tests/runtime/test_check_references.py: the lines of a stop)
+    monkeypatch.setattr(stability, "AGREE", 1e12)
     capsys.readouterr()
     main(["check", str(built), "--t-final", "300", "--methods", "dop853"])
     err = capsys.readouterr().err
     parsed = [LINE.match(line) for line in err.splitlines() if line.startswith("eomc check pend: ")]
     assert parsed and all(parsed), err
     runs = {m.group(1) for m in parsed}
-    # the references at 100x and 1000x tighter rtol (atol 1x, 10x) and the method's own run: the
-    # tightest reference is the longest (the others may end before a poll sees them)
-    named = {"looser reference: dop853 at rtol=1e-10, atol=1e-10", "reference: dop853 at rtol=1e-11, atol=1e-11",
-             "dop853 at rtol=1e-08, atol=1e-10"}
-    assert "reference: dop853 at rtol=1e-11, atol=1e-11" in runs and runs <= named, runs
+    # the references at 100x and 1000x tighter rtol (atol 1x, 10x), run at once (one line for
+    # both, the tighter's time and steps: s31), and the method's own run (it may end before a
+    # poll sees it)
+    refs = "references: dop853 at rtol=1e-10 and 1e-11, compared as they go"
+    named = {refs, "dop853 at rtol=1e-08, atol=1e-10"}
+    assert refs in runs and runs <= named, runs
     for run in runs:       # each run's lines rise to its end
         shares = [int(m.group(3)) for m in parsed if m.group(1) == run]
         assert shares == sorted(shares) and shares[-1] == 100, (run, shares)

@@ -87,8 +87,10 @@ def test_check_runs_auto_once_where_it_is_one_listed_method(ball, monkeypatch):
     assert auto.method == "radau"
     np.testing.assert_array_equal(auto.x, radau.x)
     ran = []
-    real = stability._run
+    real, real_refs = stability._run, stability.run_references
     monkeypatch.setattr(stability, "_run", lambda *a: ran.append(a[5]) or real(*a))
+    # the two references run at once (runtime/check_references.py, s31), not through _run
+    monkeypatch.setattr(stability, "run_references", lambda *a, **k: ran.extend([a[5]] * 2) or real_refs(*a, **k))
     checks = {c.name: c for c in stability.check_model(ball, x0, 0.5, rtol=1e-8, atol=1e-10)}
     # the same run's numbers under both names, auto's saying whose they are (first hour s27: two
     # equal lines and nothing saying why)
@@ -104,7 +106,12 @@ def test_check_takes_the_looser_reference_as_the_reference_methods_convergence_r
     G1's no-flag check ran Radau at rtol 1e-10 twice more (23 s CPU each) for it."""
     from eomc.runtime import stability
     x0 = np.r_[0, 0, 0.5, np.zeros(9)]
-    ran, real = [], stability._run
+    ran, real, real_refs = [], stability._run, stability.run_references
+
+    def refs(model, x0, p, t_final, t_eval, method, tols, *rest):
+        ran.extend((method, *tol) for tol in tols)      # at once, not through _run (s31)
+        return real_refs(model, x0, p, t_final, t_eval, method, tols, *rest)
+    monkeypatch.setattr(stability, "run_references", refs)
 
     def off(*a):                 # the checked runs (rtol 1e-8) ~2000 x their tolerance off at the end
         ran.append((a[5], a[6], a[7]))
