@@ -5,7 +5,7 @@ for two checkouts in the same run.
 
     python benchmarks/bench_check_time.py --side main=/work/venvs/base31/bin/eomc \\
         --side branch=/work/venvs/check3/bin/eomc [--models g1,go2,solo12,humanoid,ant] \\
-        [--rounds 1] [--cpus 0] [--no-write]
+        [--rounds 1] [--cpus 0] [--phases cold,warm] [--no-write]
 
 Each `eomc check` runs as a user types it (a fresh process, stdout and stderr to files); its wall
 time and CPU time (its and its children's: gcc, the second reference's thread) are recorded with
@@ -64,6 +64,8 @@ def main():
     ap.add_argument("--models", default="g1,go2,solo12,humanoid,ant")
     ap.add_argument("--rounds", type=int, default=1)
     ap.add_argument("--cpus", default="", help="taskset -c CPUS for every command (default: none)")
+    ap.add_argument("--phases", default="cold,warm", help="cold (a new cache, then warm) and/or warm (the "
+                    "cache of a previous run in --work, or built by the first run)")
     ap.add_argument("--work", default="/tmp/bench_check_time")
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args()
@@ -73,7 +75,7 @@ def main():
     for r in range(args.rounds):
         for k, name in enumerate(args.models.split(",")):
             order = sides if (k + r) % 2 == 0 else sides[::-1]
-            for phase in ("cold", "warm"):
+            for phase in args.phases.split(","):
                 for side, eomc in order:
                     cache = Path(args.work) / f"cache-{side}-{name}-{r}"
                     if phase == "cold" and cache.exists():
