@@ -66,6 +66,9 @@ class Check:
     # neither passed nor failed: an explicit method stopped on a model the stiffness check
     # calls stiff (STIFF_AT) -- expected, so not a failed check
     stiff: bool = False
+    # the reference check's: the time the two references part, where they stopped and after which
+    # nothing is judged (None: they agree over the whole span); the summary line says it
+    judged_until: float = None
 
 
 def _try(fn):
@@ -242,7 +245,8 @@ def _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps, stiff=False
                  f"{np.max(apart[:h]) if h else 0.0:.3g} x tolerance{f' until t={t_eval[h]:.4g}' if parted else ''})")
     checks = [Check("reference", f"two references ({ref_method} at rtol={tols[0][0]:g} and "
                     f"{tols[1][0]:g}) agree to {AGREE:g} x tolerance over [0, t_final]",
-                    _horizon_text(apart, t_eval, h, parted) + _stopped_text(ref), True)]
+                    _horizon_text(apart, t_eval, h, parted) + _stopped_text(ref), True,
+                    judged_until=float(t_eval[h]) if parted else None)]
     if h < MIN_WINDOW:
         checks.append(Check("accuracy", f"the references agree long enough to judge a method "
                             f"({MIN_WINDOW} output times)", _horizon_text(apart, t_eval, h, parted) +
@@ -459,7 +463,10 @@ def format_checks(checks):
     passed = sum(c.passed for c in checks)
     unsure = sum(c.inconclusive for c in checks)
     stiff = [c.name.split()[0] for c in checks if c.stiff]
+    until = next((c.judged_until for c in checks if c.judged_until is not None), None)
     lines.append(f"{passed} of {len(checks)} checks passed" + (
+        f"; accuracy judged on [0, {until:.4g}] only, where the references part (the reference line says why)"
+        if until is not None else "") + (
         f", {len(stiff)} stiff ({' and '.join(stiff)} stopped as explicit methods do on a stiff model: "
         f"expected, not failures)" if stiff else "") + (
         f", {unsure} inconclusive (could not be made; see why above)" if unsure else ""))

@@ -56,6 +56,9 @@ def test_a_check_whose_references_part_early_says_up_to_when_it_judged(double_pe
     assert acc.passed and f"judged up to t={horizon:.4g}, where the references part" in acc.measured
     assert f"on [0, {horizon:.4g}] where the references agree" in acc.expected
     assert outcome(list(checks.values())) == "passed"
+    summary = stability.format_checks(list(checks.values())).splitlines()[-1]    # not only in the lines above
+    assert summary.endswith(f"checks passed; accuracy judged on [0, {horizon:.4g}] only, where the references "
+                            f"part (the reference line says why)"), summary
 
 
 def test_a_method_that_stops_still_fails_where_the_references_part_early(double_pendulum):
