@@ -287,8 +287,8 @@ def _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps, stiff=False
             how = f"; more than {MISSED_FACTOR:g} x tolerance: the tolerance was missed by orders of magnitude"
         if parted:
             how += (f"; judged up to t={t_eval[h]:.4g}, where the references part: after it the problem's "
-                    f"conditioning, not the method, limits any comparison (the run itself reached "
-                    f"t_final={t_final:g})")
+                    f"conditioning, not the method, limits any comparison (the run itself went on to "
+                    f"t={float(res.t_final):.4g})")
         if method == "auto" and same.get("auto") in methods:
             # first hour s27: a1 --floating-base --ground printed the same line for auto and radau
             # with nothing saying why
