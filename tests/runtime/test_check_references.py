@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from eomc.runtime import check_references, stability
+from helpers.spoiled_method import spoil_dop853
 from eomc.runtime.stability import check_model, outcome
 
 CHAOTIC = np.array([2.5, 2.5, 0.0, 0.0])
@@ -74,14 +75,7 @@ def test_a_method_that_stops_still_fails_where_the_references_part_early(double_
 def test_a_method_off_by_orders_of_magnitude_before_the_parting_fails(double_pendulum, monkeypatch):
     """A run 1e-2 off in q1 from t = 1 s (inside [0, 4.8]: ~4e5 x its tolerance) fails, as it did
     with references run to t_final."""
-    real = stability.simulate
-
-    def wrong(model, x0, t_span, **kw):
-        res = real(model, x0, t_span, **kw)
-        if kw.get("method") == "dop853" and kw.get("rtol") == 1e-8:
-            res.x[res.t >= 1.0, 0] += 1e-2
-        return res
-    monkeypatch.setattr(stability, "simulate", wrong)
+    spoil_dop853(monkeypatch, 1e-2)
     checks = check_model(double_pendulum, CHAOTIC, 60.0, methods=("dop853",))
     acc = {c.name: c for c in checks}["dop853 accuracy"]
     assert not acc.passed and "missed by orders of magnitude" in acc.measured

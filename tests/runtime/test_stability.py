@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers.spoiled_method import spoil_dop853
 from helpers.stand_in import get_model
 
 import eomc.cli.common as cli_common
@@ -257,14 +258,7 @@ def test_conditioning_is_told_apart_from_a_wrong_method(double_pendulum, monkeyp
     assert f"judged up to t={horizon:.4g}, where the references part" in acc.measured
     assert "so both stopped there and nothing after it is judged" in ref.measured
     # a wrong method: its result off by 1e-4 in q1 from t = 1 s (inside the agreeing window)
-    real = stability.simulate
-
-    def wrong(model, x0, t_span, **kw):
-        res = real(model, x0, t_span, **kw)
-        if kw.get("method") == "dop853" and kw.get("rtol") == 1e-8:
-            res.x[res.t >= 1.0, 0] += 1e-4
-        return res
-    monkeypatch.setattr(stability, "simulate", wrong)
+    spoil_dop853(monkeypatch, 1e-4)
     bad = by_name(check_model(double_pendulum, CHAOTIC, 10.0, methods=("dop853",)))["dop853 accuracy"]
     assert not bad.passed and not bad.inconclusive and "missed by orders of magnitude" in bad.measured
     assert outcome([bad]) == "failed"
