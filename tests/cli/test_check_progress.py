@@ -2,11 +2,12 @@
 references the longest part): in a log, the plain lines of runtime/progress.py, each naming the
 run (which reference, which method, its tolerances); on a terminal, the ticker's live line."""
 import re
+import threading
 
 import pytest
 
 from eomc.cli import main
-from eomc.runtime import progress, stability
+from eomc.runtime import check_references, progress, stability
 from helpers import model_files
 
 LINE = re.compile(r"^eomc check pend: (.+): t = (\S+) of \[0, 300\] \((\d+) %\), (\d+) steps, \d+ s$")
@@ -27,6 +28,22 @@ def test_each_long_run_of_a_check_prints_lines_naming_it(built, capsys, monkeypa
     # the references stop where they part (t = 105 of 300 here, s31): held together, they run to
     # t_final, long enough for lines (tests/runtime/test_check_references.py: the lines of a stop)
     monkeypatch.setattr(stability, "AGREE", 1e12)
+    # the pendulum's references take milliseconds: a poll may never see them mid-run, and a run
+    # no poll saw print nothing (right for a short run; ci31b failed on it, 1 in 3 after
+    # test_check_references). Their comparison waits here until the follower printed a line.
+    printed = threading.Event()
+    poll, watch = progress._Follower.poll, check_references._watch
+
+    def poll_noting(self, t, steps):
+        poll(self, t, steps)
+        if self.lines:
+            printed.set()
+
+    def watch_after_a_line(*args):
+        printed.wait(60)
+        return watch(*args)
+    monkeypatch.setattr(progress._Follower, "poll", poll_noting)
+    monkeypatch.setattr(check_references, "_watch", watch_after_a_line)
     capsys.readouterr()
     main(["check", str(built), "--t-final", "300", "--methods", "dop853"])
     err = capsys.readouterr().err
