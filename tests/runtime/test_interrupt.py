@@ -59,11 +59,9 @@ def test_an_exception_in_the_callable_stops_the_run_at_once(osc, method):
 @pytest.mark.parametrize("exc", [KeyboardInterrupt, SystemExit])
 def test_keyboard_interrupt_in_the_callable_propagates_at_once(osc, exc):
     r, calls = _raises_once_at(0.5, exc())
-    start = time.perf_counter()
     with pytest.raises(exc):
         osc.simulate([1.0, 0.0], (0, 1e4), r=r, max_steps=10 ** 9)
-    assert calls["after"] == 0
-    assert time.perf_counter() - start < 5.0  # the 1e4 s run would take minutes
+    assert calls["raised"] and calls["after"] == 0    # at once: r is called every step, and never again after it raised
 
 
 def test_a_callable_with_state_that_raises_stops_radau_too(osc):

@@ -1,6 +1,5 @@
 """A robot too large for dense Jacobians is refused at once, with the figure and the way out
 (eomc.compiler.model.ceiling); the rhs alone is not bounded by it."""
-import time
 
 import pytest
 
@@ -34,10 +33,8 @@ def test_a_default_build_past_the_ceiling_is_refused_before_deriving(long_chain,
         raise AssertionError("the model was derived")
     monkeypatch.setattr(driver, "spec_of", refuse)
     monkeypatch.delenv("EOMC_BUILD_CEILING", raising=False)
-    start = time.process_time()
     with pytest.raises(ModelError) as error:
-        eomc.compile(str(long_chain), progress=False)
-    assert time.process_time() - start < 30            # reading the file, not building it
+        eomc.compile(str(long_chain), progress=False)  # refuse() above: reading the file, not deriving it
     text = str(error.value)
     assert f"{MAX_DENSE_COORDINATES + 1} coordinates" in text and "about 62 MB of C" in text, text
     assert "--outputs rhs,mass_matrix,forcing,inverse_dynamics,outputs,events,poses" in text, text
