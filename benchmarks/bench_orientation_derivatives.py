@@ -179,7 +179,7 @@ def measure(name, rounds, cache):
 
 
 def main(argv):
-    from common import environment_header, format_table, write_results
+    from common import format_table, publish
     rounds = int(argv[argv.index("--rounds") + 1]) if "--rounds" in argv else 7
     names = argv[argv.index("--models") + 1].split(",") if "--models" in argv else MODELS
     cache = Path(os.environ.get("EOMC_CACHE_DIR") or tempfile.mkdtemp(prefix="eomc_od_"))
@@ -187,16 +187,12 @@ def main(argv):
     heads = (["model", "t (s)"] + [f"{f} {o} µs" for f in ("jac_x", "jvp", "vjp", "rhs") for o in ("euler", "quat")]
              + [f"{f} quat / euler" for f in ("jac_x", "jvp", "vjp", "rhs")]
              + ["chart: J_u,q Dφ vs J_u,e", "jac_x quat vs central FD"])
-    text = "\n".join([
-        environment_header("Derivative calls: quaternion build (the MJCF default) vs Euler build"), "",
-        f"- load average before the run: {os.getloadavg()}", "",
-        format_table(heads, rows), "",
+    publish("orientation_derivatives", "Derivative calls: quaternion build (the MJCF default) vs Euler build", [
+        f"- load average before the run: {os.getloadavg()}",
+        format_table(heads, rows),
         f"Thread CPU per call, medians of {rounds} interleaved rounds ({CALLS} calls a sample), one process; "
         "states of the quaternion build's passive run from its initial state, the Euler build at the same "
-        "physical state (see the script's docstring for the two checks)."])
-    print(text)
-    if "--no-write" not in argv:
-        write_results("orientation_derivatives", text, keep_notes=True)
+        "physical state (see the script's docstring for the two checks)."], argv)
 
 
 if __name__ == "__main__":

@@ -40,7 +40,7 @@ def main(argv):
     from eomc.compiler.mjcf.compare import to_mujoco
     from eomc.compiler.mjcf.model import MjcfModel
     from bench_passive import Mapped, gym_file
-    from common import environment_header, format_table, write_results
+    from common import format_table, publish
     rounds = int(argv[argv.index("--rounds") + 1]) if "--rounds" in argv else 7
     path = gym_file("humanoid")
     cache = Path(os.environ.get("EOMC_CACHE_DIR") or tempfile.mkdtemp(prefix="eomc_pjx_"))
@@ -94,17 +94,13 @@ def main(argv):
         print(rows[-1], flush=True)
     heads = ["t (s)", "self-pair points in contact"] + [f"{k} µs" for k in contestants] + [f"{k} / trees" for k in models if k != "trees"] + (
         ["|table - blockW| / max(1, |J|)"] if "table blockW" in models else [])
-    text = "\n".join([
-        environment_header("Humanoid jac_x with its self-pairs (the pairs' table)"), "",
-        format_table(heads, rows), "",
+    publish("pair_jac_x", "Humanoid jac_x with its self-pairs (the pairs' table)", [
+        format_table(heads, rows),
         f"Thread CPU per call, medians of {rounds} interleaved rounds ({CALLS} calls each; mjd_transitionFD "
         "20), at the states of the humanoid's passive fall from its initial state (eomc, default build); "
         "jac_x: eomc's (46 x 46, the rhs's state Jacobian); MuJoCo at the same qpos and qvel: mj_forward, "
         "and mjd_transitionFD (forward differences, eps 1e-6, the (2 nv) x (2 nv) transition matrix of one "
-        "step: 2 nv + 1 steps; the file's RK4 set to Euler, which it requires)."])
-    print(text)
-    if "--no-write" not in argv:
-        write_results("pair_jac_x", text, keep_notes=True)
+        "step: 2 nv + 1 steps; the file's RK4 set to Euler, which it requires)."], argv)
 
 
 if __name__ == "__main__":

@@ -250,6 +250,17 @@ def write_results(name, text, csv_rows=None, csv_headers=None, keep_notes=False)
     return paths
 
 
+def publish(name, title, parts, argv):
+    """A results file's usual shape: the environment header, then ``parts`` (tables, notes) one
+    after another with a blank line between; printed, and written to results/<name>.md (its
+    hand-written notes kept) unless ``--no-write`` is in ``argv``.  Returns the text."""
+    text = "\n\n".join([environment_header(title), *parts])
+    print(text)
+    if "--no-write" not in argv:
+        write_results(name, text, keep_notes=True)
+    return text
+
+
 def parse_args(description, default_n, default_repeat=5, argv=None, extra=None):
     """The CLI every benchmark shares: --quick, --n LIST, --repeat, --no-write."""
     parser = argparse.ArgumentParser(description=description)
