@@ -1047,6 +1047,12 @@ typedef struct fsl_pattern {
     int nslots;
 } fsl_pattern;
 
+/* The grown patterns kept (fsl_grow).  Measured (bench_rollout_contacts' humanoid, 64 rows, lanes
+ * 8, session 32): of 3402 calls that grow a pattern, 763 made theirs anew with one kept, 164 with 8;
+ * the rollout 0.6-1.7 % faster (one process switching call by call, 20-30 calls a side, core 1,
+ * load 3-4), same bits (a pattern is a function of its bits). */
+#define FSL_GROWN 8
+
 struct eomc_fs_lanes {
     fs_layout L;
     int nq, nu, lanes, width, nslot;   /* width: the kernel's lanes (lanes: a multiple of it) */
@@ -1064,15 +1070,18 @@ struct eomc_fs_lanes {
     int *cslot_start, *cslot;  /* per contact, the m x m slots (chain[a], chain[k]) */
     /* The pattern a call factors with (as the scalar fs_assemble's per-step fill, fs_pattern): M's
      * tree's (base), or, when a body-body pair across two branches has a depth > 0 in one of the
-     * group's lanes, the tree's with the fill of every such pair (grown: made for the last set of
-     * them, kept while it is the same).  full: every pair's fill (the slot map's), the pattern
-     * when M has no tree or more than 64 speeds (dyn 0).  mstart, mcols: M's row i's columns that
-     * can be nonzero (base's: fs_columns), read by the residual's product and the transport. */
-    fsl_pattern full, base, grown;
-    int dyn, have_grown;
+     * group's lanes, the tree's with the fill of every such pair (grown: the last FSL_GROWN such
+     * patterns made, each kept with its bits gbits until the least recently used is made over).
+     * full: every pair's fill (the slot map's), the pattern when M has no tree or more than 64
+     * speeds (dyn 0).  mstart, mcols: M's row i's columns that can be nonzero (base's:
+     * fs_columns), read by the residual's product and the transport. */
+    fsl_pattern full, base, grown[FSL_GROWN];
+    int dyn, ngrown;                  /* ngrown: the grown patterns made room for (FSL_GROWN with dyn, else 1:
+                                         each the size of full's, which grows as nu^3 on a chain) */
+    long gused[FSL_GROWN], gclock;    /* when each was last returned (0: never made) */
     int *mstart, *mcols;
     unsigned long long *tbits, *xbits, *gbits, *bits;   /* nu: the tree's; nc: each contact's speeds;
-                                                           nu: grown's and scratch */
+                                                           FSL_GROWN nu: grown's; nu: scratch */
     int *xon, *touch;                 /* nc each: the kernel's scratch (the ones in touch) */
     unsigned char *cross;             /* nc: 1 for the contacts across two branches (dyn) */
     unsigned char *mark;              /* nslot bytes (fsl_lists) */
@@ -1135,7 +1144,7 @@ static int fsl_lists(eomc_fs_lanes *w, fsl_pattern *P)
 
 /* The pattern for the tree with the fill of the contacts xs[0 .. nx) (each across two branches):
  * fs_couple and fs_fill's bits and lists (the scalar path's for the same pressed pairs), kept in
- * w->grown while the next call's are the same. */
+ * one of w->grown for the next calls with the same bits (the least recently used made over). */
 static const fsl_pattern *fsl_grow(eomc_fs_lanes *w, const int *xs, int nx)
 {
     const eomc_implicit *imp = w->imp;
@@ -1151,18 +1160,28 @@ static const fsl_pattern *fsl_grow(eomc_fs_lanes *w, const int *xs, int nx)
     for (int k = n - 1; k >= 0; k--)
         for (int i = k - 1; i >= 0; i--)
             if (m[k] >> i & 1) m[i] |= m[k] & ((1ULL << i) - 1);
-    if (w->have_grown && memcmp(m, w->gbits, (size_t)n * sizeof *m) == 0) return &w->grown;
-    for (int k = 0; k < n; k++) {
-        w->grown.start[k] = pos;
-        for (int i = k - 1; i >= 0; i--)
-            if (m[k] >> i & 1) w->grown.anc[pos++] = i;
+    int g = 0;
+    fsl_pattern *P;
+    w->gclock++;
+    for (int j = 0; j < w->ngrown; j++) {
+        if (w->gused[j] && memcmp(m, w->gbits + (size_t)j * n, (size_t)n * sizeof *m) == 0) {
+            w->gused[j] = w->gclock;
+            return &w->grown[j];
+        }
+        if (w->gused[j] < w->gused[g]) g = j;        /* the least recently used (or one never made) */
     }
-    w->grown.start[n] = pos;
-    w->have_grown = 0;
-    if (fsl_lists(w, &w->grown)) return &w->full;
-    memcpy(w->gbits, m, (size_t)n * sizeof *m);
-    w->have_grown = 1;
-    return &w->grown;
+    P = &w->grown[g];
+    for (int k = 0; k < n; k++) {
+        P->start[k] = pos;
+        for (int i = k - 1; i >= 0; i--)
+            if (m[k] >> i & 1) P->anc[pos++] = i;
+    }
+    P->start[n] = pos;
+    w->gused[g] = 0;
+    if (fsl_lists(w, P)) return &w->full;
+    memcpy(w->gbits + (size_t)g * n, m, (size_t)n * sizeof *m);
+    w->gused[g] = w->gclock;
+    return P;
 }
 
 #ifdef EOMC_FS_LANES
@@ -1363,24 +1382,26 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
         if (w->cslot[i] < 0) { eomc_fs_lanes_free(w); return NULL; }  /* a chain not on one path */
     nanc = w->start[nu];
     {   /* the patterns: full (the lists above), base and grown (dyn: M's tree given, nu <= 64) */
-        size_t pints = 3 * ((size_t)nu + 1 + 3 * (size_t)nanc + (size_t)nupd + (size_t)w->nslot) + (size_t)nu + 1 +
-                       (size_t)w->nslot + 2 * (size_t)nc;   /* 3 patterns, mstart, mcols, xon, touch */
-        size_t words = 3 * n + (size_t)nc;   /* tbits, gbits, bits, xbits */
-        size_t bytes = pints * sizeof(int) + words * sizeof(unsigned long long) + (size_t)w->nslot + (size_t)nc;
+        size_t pints, words, bytes;
         int *p;
         w->dyn = imp->parent != NULL && nu <= 64;
+        w->ngrown = w->dyn ? FSL_GROWN : 1;
+        pints = (2 + (size_t)w->ngrown) * ((size_t)nu + 1 + 3 * (size_t)nanc + (size_t)nupd + (size_t)w->nslot)
+                + (size_t)nu + 1 + (size_t)w->nslot + 2 * (size_t)nc;   /* the patterns, mstart, mcols, xon, touch */
+        words = (2 + (size_t)w->ngrown) * n + (size_t)nc;                /* tbits, gbits, bits, xbits */
+        bytes = pints * sizeof(int) + words * sizeof(unsigned long long) + (size_t)w->nslot + (size_t)nc;
         if ((w->pmem = calloc(1, bytes)) == NULL) {
             eomc_fs_lanes_free(w);
             return NULL;
         }
         w->tbits = (unsigned long long *)w->pmem;
         w->gbits = w->tbits + n;
-        w->bits = w->gbits + n;
+        w->bits = w->gbits + (size_t)w->ngrown * n;
         w->xbits = w->bits + n;
         p = (int *)(w->xbits + nc);
         fsl_carve(&w->full, &p, nu, nanc, nupd, w->nslot);
         fsl_carve(&w->base, &p, nu, nanc, nupd, w->nslot);
-        fsl_carve(&w->grown, &p, nu, nanc, nupd, w->nslot);
+        for (int g = 0; g < w->ngrown; g++) fsl_carve(&w->grown[g], &p, nu, nanc, nupd, w->nslot);
         w->mstart = p; p += nu + 1;
         w->mcols = p; p += w->nslot;
         w->xon = p; p += nc;
