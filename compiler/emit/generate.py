@@ -26,6 +26,8 @@ from .sparse_lu import sparse_lu_solver
 from .split import (FOLD_MIN, LEAN_MACRO, NEAR_MACRO, NOINLINE_MACRO, PART_LEAN_FUNCTIONS, PART_LEAN_MACRO,
                     lean_attribute, split_body)
 from .batch import batch_code
+from .forward import forwarded_outputs
+from .packed import packed_inputs
 from .signatures import BATCH_FUNCTIONS, FUNCTION_ORDER, ON_REQUEST, SIGNATURES, STRUCT_FIELDS, cdef, prototype
 from .symbolic import HELPER_USERS
 
@@ -552,6 +554,9 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
             printed[fn] = (blines, bparts if consts is not None else asked + bparts)
         lean = lean_attribute(fn, lines)
         lines, parts = formulation.scalar_text(fn, name, sym, lines, parts)   # after the lanes twin's copy
+        if fn == "implicit":    # its contact loops read their inputs in place (.packed)
+            lines, parts = packed_inputs(lines, parts, f"{name}_{fn}_part")
+            lines, parts = forwarded_outputs(lines, parts, f"{name}_{fn}_part")
         if consts is not None:
             rendered += _constants_apart(name, fn, consts[1], lines, parts, lean)
             meta_batch.setdefault("const_outputs", {})[fn] = sum(1 for line in full if line in consts[0])
