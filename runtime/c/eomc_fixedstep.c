@@ -534,6 +534,17 @@ static void fs_columns(int n, const int *start, const int *anc, int *cstart, int
     cstart[n] = pos;
 }
 
+/* A contact's chain is a few runs of consecutive speeds (gymnasium's humanoid: a foot's 0..12, a hand's
+ * 0..5 and 20..22), and fs_assemble's J^T G J scatter goes over them in vectors where the compiler
+ * has them (GNU C's vector extension: AVX2's four doubles in eomc_fixedstep_avx2.c's copy, SSE2's two
+ * in the base build).  A vector's lanes are each the scalar operation (products, then sums in the
+ * same order: C99 mode contracts nothing, and neither build has FMA), so the same bits. */
+#if defined(__GNUC__)
+#define FS_VEC 1
+typedef double fs_v4 __attribute__((vector_size(32), aligned(8)));
+typedef double fs_v2 __attribute__((vector_size(16), aligned(8)));
+#endif
+
 static int fs_tree_lu(int n, double *A, const int *start, const int *anc)
 {
     double scale = 0.0;
@@ -993,25 +1004,49 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
          * fs_assemble on the ant and the humanoid, fs_speed's decoding another 3-4 %.  Measured
          * (session 25; bench_fixedstep's qpos0 runs, the integrator libraries side by side in one
          * process, 3 copies each, core 1, load 10-19): hopper +-1 %, walker2d -3 %, ant -2 to -3 %,
-         * humanoid -2 to -4 % (benchmarks/results/fixedstep.md's notes). */
+         * humanoid -2 to -4 % (benchmarks/results/fixedstep.md's notes).  The scatter goes by the chain's
+         * runs of consecutive speeds (run[]: a foot's chain on gymnasium's humanoid is one run 0..12), in
+         * vectors (FS_VEC), each lane the scalar sum: the same bits.  Measured (session 32, rdtsc medians
+         * of this contact loop in the humanoid's T2 run, base32's library against this, load 4-7): a
+         * fresh assembly 1534-1586 -> 1352-1404 ticks, one for another h (the cache read, the scatter
+         * left) 1248-1300 -> 936-1040; the ant's chains (7-8 speeds) 1586-1612 -> 1560. */
         {
             double *g0 = GJ, *g1 = GJ + m, *g2 = GJ + 2 * m;
-            int sp[FS_CHAIN], *spd = m <= FS_CHAIN ? sp : NULL;
+            int sp[FS_CHAIN], run[FS_CHAIN + 1], *spd = m <= FS_CHAIN ? sp : NULL, nrun = 0;
             for (int k = 0; k < m; k++) {
                 const double *j = J + 3 * k;
                 int sk = fs_speed(cols[k]);
-                if (spd) spd[k] = sk;
+                if (spd) {
+                    spd[k] = sk;
+                    if (k == 0 || sk != spd[k - 1] + 1) run[nrun++] = k;   /* a run of speeds starts */
+                }
                 g0[k] = G[0] * j[0] + G[1] * j[1] + G[2] * j[2];
                 g1[k] = G[3] * j[0] + G[4] * j[1] + G[5] * j[2];
                 g2[k] = G[6] * j[0] + G[7] * j[1] + G[8] * j[2];
                 b[sk] -= h * JKv[k];
             }
+            run[nrun] = m;
             for (int a = 0; a < m; a++) {
                 const double *ja = J + 3 * a;
                 double j0 = ja[0], j1 = ja[1], j2 = ja[2];
                 double *row = A + (size_t)fs_speed(cols[a]) * nu;
                 if (spd)
-                    for (int k = 0; k < m; k++) row[spd[k]] += j0 * g0[k] + j1 * g1[k] + j2 * g2[k];
+                    for (int g = 0; g < nrun; g++) {
+                        int i = 0, len = run[g + 1] - run[g];
+                        double *r = row + spd[run[g]];
+                        const double *h0 = g0 + run[g], *h1 = g1 + run[g], *h2 = g2 + run[g];
+#ifdef FS_VEC
+                        for (; i + 3 < len; i += 4)
+                            *(fs_v4 *)(r + i) += j0 * *(const fs_v4 *)(h0 + i) + j1 * *(const fs_v4 *)(h1 + i)
+                                                 + j2 * *(const fs_v4 *)(h2 + i);
+                        if (i + 1 < len) {
+                            *(fs_v2 *)(r + i) += j0 * *(const fs_v2 *)(h0 + i) + j1 * *(const fs_v2 *)(h1 + i)
+                                                 + j2 * *(const fs_v2 *)(h2 + i);
+                            i += 2;
+                        }
+#endif
+                        for (; i < len; i++) r[i] += j0 * h0[i] + j1 * h1[i] + j2 * h2[i];
+                    }
                 else
                     for (int k = 0; k < m; k++) row[fs_speed(cols[k])] += j0 * g0[k] + j1 * g1[k] + j2 * g2[k];
             }
