@@ -1177,6 +1177,7 @@ static int fsl_lists(eomc_fs_lanes *w, fsl_pattern *P)
     return 0;
 }
 
+#ifdef EOMC_FS_LANES    /* the lanes' kernel is its one caller (unused, and a warning, without it) */
 /* The pattern for the tree with the fill of the contacts xs[0 .. nx) (each across two branches):
  * fs_couple and fs_fill's bits and lists (the scalar path's for the same pressed pairs), kept in
  * one of w->grown for the next calls with the same bits (the least recently used made over). */
@@ -1219,7 +1220,6 @@ static const fsl_pattern *fsl_grow(eomc_fs_lanes *w, const int *xs, int nx)
     return P;
 }
 
-#ifdef EOMC_FS_LANES
 #include <immintrin.h>
 #define FSL_W 4
 #define FSL_TARGET "avx2"
