@@ -93,6 +93,8 @@ POINT_OUTPUTS = 9        # F_n, friction (3), δ, clip, p (3): PairValue kinds 0
 # v_B - v_A at p (3), K (9), C (9) (.pairs.law_slopes; 0 out of contact)
 SLOPE_OUTPUTS = 25
 SLOPES = 3               # ``full`` of a call in its "slopes" variant (its C passes 0: the rhs's skips)
+# ``full`` of a call in its "slopes" variant that also sums its points' elastic energy (Table.energy_at)
+SLOPES_ENERGY = 5
 DEPTH_OUTPUT = 4         # a contact point's δ among its POINT_OUTPUTS (PairValue kind "depth")
 DEPTHS_POSITIVE = "depths"   # for_program's ``exact`` for a function reading δ only as (δ + |δ|)/2
 # ``full`` of such a function's call when δ is all it reads of the loop (NAME_energy): the rhs's skips
@@ -116,6 +118,12 @@ class Table:
         law = nw.routine_outputs(nw.LAW_RID) + len(nw.tape_of(nw.LAW_RID))
         need = sum(nw.routine_outputs(rid) + len(nw.tape_of(rid)) + len(_parts(rid)) * law for rid, *_ in pairs)
         self.room = min(need, TAPE_ROOM)     # the taped call's room for them
+        # the "slopes" variant's output after its slope block: its points' elastic energy, per point
+        # in touch (the law runs, δ >= 0) k δ^(5/2) / (5/2), compiler/tree/contacts._pair_energy's
+        # term (δ₊ = δ there; 0 elsewhere), summed in the loop's order.  NAME_implicit's energy slot
+        # reads it (contacts.ENERGY_IMPLICIT): the slopes variant does not write the points' δ
+        # outputs the other functions' terms read.  (Its "into" variant writes it at noutput.)
+        self.energy_at = self.noutput + SLOPE_OUTPUTS * self.npoints
 
     def key(self):
         return (tuple(self.bodies), tuple(self.shapes), tuple(self.pairs), self.room)
@@ -130,7 +138,7 @@ def table_of(tid):
     return _TABLES[int(tid)]
 
 
-def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, slopes=None, call_info=None):
+def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, slopes=None, call_info=None, energy=None):
     """Lower the PairLoads ``loads`` (one per contact point, as :func:`.pairs.with_pairs` makes
     them) as one :class:`PairTableCall`: add the wrenches to the bodies' fext; return
     {PairValue placeholder: temporary}.  ``wrenches``: a list to fill with (tree body, its six
@@ -141,7 +149,8 @@ def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, slopes=None
     ``call_info``: a dict to fill with the call's temporary ("call"), its table id ("table") and
     the shapes' offsets and the laws' parameters as expressions ("fixed": where none reads the
     state, the analytic kernel forms the tangents of the call's inputs itself,
-    :class:`PairTableKernelTape`)."""
+    :class:`PairTableKernelTape`).  ``energy``: a dict to fill with "energy", the points' elastic
+    energy as the "slopes" variant sums it (:attr:`Table.energy_at`; NAME_implicit's)."""
     from .pairs import BROAD_PAD, PairValue, bounding_radius, _num
     first = {}
     for ld in loads:                        # a pair's points share its index base and shapes
@@ -193,6 +202,8 @@ def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, slopes=None
         old = bodies[i].fext or [0] * 6
         bodies[i].fext = [old[k] + x for k, x in enumerate(w)]
     values = {}
+    if energy is not None:
+        energy["energy"] = PairTableOut(call, sm.Integer(0), sm.Integer(table.energy_at))
     for ld in loads:
         point = bases[ld.index - max(ld.part, 0)] + max(ld.part, 0)
         at = table.nwrench + POINT_OUTPUTS * point
@@ -220,7 +231,10 @@ class PairTableCall(nw.Token):
         return False
 
     def _slopes(self):
-        return int(self.args[1]) == SLOPES
+        return int(self.args[1]) in (SLOPES, SLOPES_ENERGY)
+
+    def _energy(self):
+        return int(self.args[1]) == SLOPES_ENERGY
 
     DEPTHS_POSITIVE = DEPTHS_POSITIVE
 
@@ -232,10 +246,10 @@ class PairTableCall(nw.Token):
         t = self.table
         n = t.noutput + (t.ninput + len(t.pairs) + t.room if self._tape() else 0)
         n += SLOPE_OUTPUTS * t.npoints if self._slopes() else 0
-        return f"double PT_[{n}];"
+        return f"double PT_[{n + self._energy()}];"
 
     def c_routines(self):
-        return _routines(self.table, self._tape(), False, self._slopes())
+        return _routines(self.table, self._tape(), False, self._slopes(), self._energy())
 
     def _ccode(self, printer):
         t = self.table
@@ -280,7 +294,7 @@ class PairTableCall(nw.Token):
         if any(k >= t.noutput for k in reads):      # NAME_implicit: the pairs' slopes
             if any(t.nwrench <= k < t.noutput for k in reads):
                 raise ModelError("a function reads both the body-body pairs' slopes and their outputs")
-            full = SLOPES
+            full = SLOPES_ENERGY if t.energy_at in reads else SLOPES
         else:
             depths = exact == DEPTHS_POSITIVE
             if depths:
@@ -352,11 +366,14 @@ class PairTableSlopesInto(PairTableCall):
     def _slopes(self):
         return True
 
+    def _energy(self):
+        return False
+
     def c_declaration(self):
-        return f"double PT_[{self.table.noutput}];"
+        return f"double PT_[{self.table.noutput + self._energy()}];"
 
     def c_routines(self):
-        return _routines(self.table, False, False, "into")
+        return _routines(self.table, False, False, "into", self._energy())
 
     def for_program(self, reads, exact=False):
         return self
@@ -367,6 +384,14 @@ class PairTableSlopesInto(PairTableCall):
         # the block's length too: NAME_implicit_batch's lanes (compiler/emit/batch.py) gather it
         return (f"eomc_pairs_slopes((const double[{t.nstate}]){{{state}}}, {_array(self.args[2 + t.nstate:], printer)}, "
                 f"0, &PT_[0], &out[{int(self.args[1])}], {SLOPE_OUTPUTS * t.npoints}, {int(KEPT_BLOCK)})")
+
+
+class PairTableSlopesEnergyInto(PairTableSlopesInto):
+    """:class:`PairTableSlopesInto` of a call in the SLOPES_ENERGY variant: its points' elastic energy
+    (:attr:`Table.energy_at`) in ``PT_[noutput]`` (slopes_into reads it there)."""
+
+    def _energy(self):
+        return True
 
 
 def slopes_into(program, group):
@@ -397,11 +422,18 @@ def slopes_into(program, group):
                 and int(e.args[2]) == t.noutput + j):
             return program, set()
     others = [e for k, e in res.items() if k not in keys] + [e for _, e in program.assignments]
-    if any(isinstance(x, PairTableOut) and x.args[0] == sym and int(x.args[2]) >= t.noutput
+    if any(isinstance(x, PairTableOut) and x.args[0] == sym and t.noutput <= int(x.args[2]) < t.energy_at
            for e in others if isinstance(e, sm.Basic) for x in sm.preorder_traversal(e)):
         return program, set()
-    into = PairTableSlopesInto(call.args[0], sm.Integer(off), *call.args[2:])
-    return program.with_(assignments=tuple((s, into if s == sym else e) for s, e in program.assignments)), keys
+    kind = PairTableSlopesEnergyInto if call._energy() else PairTableSlopesInto
+    into = kind(call.args[0], sm.Integer(off), *call.args[2:])
+    # the energy (energy_at after the block in PT_) is PT_[noutput] of the "into" variant
+    moved = {PairTableOut(sym, sm.Integer(0), sm.Integer(t.energy_at)): PairTableOut(sym, sm.Integer(0),
+                                                                                    sm.Integer(t.noutput))}
+    assignments = tuple((s, into if s == sym else e.xreplace(moved) if isinstance(e, sm.Basic) else e)
+                        for s, e in program.assignments)
+    results = tuple((k, e.xreplace(moved) if isinstance(e, sm.Basic) else e) for k, e in program.results)
+    return program.with_(assignments=assignments, results=results), keys
 
 
 class PairTableDot(nw.Token):
@@ -522,9 +554,10 @@ def _fmt(x):
     return repr(float(x))
 
 
-def _routines(table, tape, dot, slopes=False):
+def _routines(table, tape, dot, slopes=False, energy=False):
     """[(key, C text, split)]: the narrow and law routines the loop calls, then the loop
-    (``slopes``: its "slopes" variant and the slopes routine instead of the primal)."""
+    (``slopes``: its "slopes" variant and the slopes routine instead of the primal; ``energy``:
+    that variant summing its points' elastic energy, Table.energy_at)."""
     rids = sorted({p[0] for p in table.pairs})
     out = []
     for rid in rids + [nw.LAW_RID] + ([nw.SLOPES_RID] if slopes else []):
@@ -533,7 +566,8 @@ def _routines(table, tape, dot, slopes=False):
             out.append(((rid, {None: 0, "dot": 1, "tape": 2}[var]), text, split))
     out.append(((1000, 0), _tables(table), False))
     if slopes:
-        out.append(((1000, 6), _loop(table, "into" if slopes == "into" else "slopes"), False))
+        out.append(((1000, 7 if energy else 6), _loop(table, "into" if slopes == "into" else "slopes", energy),
+                    False))
     else:
         out.append(((1000, 1), _loop(table, "primal"), False))
     if tape:
@@ -567,12 +601,13 @@ def _tables(t):
     return "\n".join(rows) + "\n"
 
 
-def _loop(t, mode):
+def _loop(t, mode, energy=False):
     """The loop: ``mode`` "primal" (eomc_pairs), "tape" (eomc_pairs_tape: also stores its inputs,
     per pair a flag, and the narrow and law routines' tapes of the pairs in contact), "dot"
     (eomc_pairs_dot, its forward-mode twin, reading what the tape stored) or "slopes"
     (eomc_pairs_slopes, NAME_implicit's: the primal with full = 0, also writing per contact point
-    its :data:`SLOPE_OUTPUTS` after the other outputs)."""
+    its :data:`SLOPE_OUTPUTS` after the other outputs); ``energy`` (slopes): also the points'
+    elastic energy, summed where their law runs (:attr:`Table.energy_at`; "into": at noutput)."""
     from .pairs import BROAD_PAD
     dot, tape, slopes, into = mode == "dot", mode == "tape", mode in ("slopes", "into"), mode == "into"
     ns, nb = len(t.shapes), len(t.bodies)
@@ -612,6 +647,8 @@ def _loop(t, mode):
     L.append(f"    int have[{ns}] = {{0}};")
     L.append("    int q, m, k, w, j;" if dot else "    int s, q, m, k, w, j;")
     L.append(f"    for (k = 0; k < (full ? {t.noutput} : {t.nwrench}); ++k) out[k] = 0.0;")
+    if energy:
+        L.append("    double en = 0.0;   /* the points' elastic energy (Table.energy_at) */")
     if into:
         L.append("    double chk = 0.0;")
         L.append(f"    int qs[{max(sum(1 for p in t.pairs if p[0] == rid) for rid in {p[0] for p in t.pairs})}], nb, i;")
@@ -731,6 +768,8 @@ def _loop(t, mode):
                 L.append(f"            eomc_pair_slopes({largs}, &sl[4]);")
             if into:
                 L.append(f"            for (k = 4; k < {SLOPE_OUTPUTS}; ++k) chk += sl[k];")
+            if energy:  # k δ^(5/2) / (5/2), as NAME_energy prints _pair_energy's term (δ₊ = δ here)
+                L.append("            en += (2.0/5.0)*par[0]*(pp[6]*pp[6]*sqrt(pp[6]));")
         L.append(f"            if (bb >= 0) for (k = 0; k < 6; ++k) out[6 * bb + k] += {tgt}[k];")
         L.append(f"            if (ba >= 0) for (k = 0; k < 6; ++k) out[6 * ba + k] += {tgt}[6 + k];")
         L.append(f"            for (k = 0; k < 4; ++k) po[k] = {tgt}[12 + k];")
@@ -742,6 +781,8 @@ def _loop(t, mode):
             L.append(f"            used += {need};")
             L.append("        } else if (on) act[P[2]] = -1.0;")
         L.append("    }")
+    if energy:
+        L.append(f"    out[{t.noutput if into else t.energy_at}] = en;")
     L.append("    return chk;\n}\n" if into else "    return 0.0;\n}\n")
     return "\n".join(L)
 

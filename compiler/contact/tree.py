@@ -22,7 +22,7 @@ from .law import DEFAULTS, SPIN_KEYS, load_stiffness
 from .system import contact_symbols, parameter_defaults, unit_normal
 from eomc.compiler import fixed_order as fo
 
-__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "ENERGY_APART", "passive_contacts", "energy_blockers", "limited_joints", "COLLISION_SPHERES", "parse_contact",
+__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "ENERGY_IMPLICIT", "passive_contacts", "energy_blockers", "limited_joints", "COLLISION_SPHERES", "parse_contact",
            "collision_spheres", "link_frame", "with_contacts", "contact_outputs", "body_com",
            "LoweredLoad", "nearest", "with_located", "expanded_specs", "built_weight"]
 
@@ -318,9 +318,10 @@ def with_located(built, specs, locate, fold, what, identifier, weight=0.0):
 # The placeholder of the ``energy`` output of a passive tree with ground contacts (lowered
 # by eomc.compiler.tree.contacts.lower_contacts): kinetic + gravity + the contacts' elastic energy.
 ENERGY = ContactValue(-1, -1)
-# the energy less the body-body pairs of a pairs' table (compiler/tree/contacts.lower_contacts):
-# NAME_implicit's energy slot (compiler/tree/lower.implicit_layout)
-ENERGY_APART = ContactValue(-1, -2)
+# NAME_implicit's energy slot (compiler/tree/lower.implicit_layout) where a pairs' table holds
+# body-body pairs: the energy with the table's points' elastic energy summed by its slopes loop
+# (contact/table.Table.energy_at; compiler/tree/contacts.lower_contacts)
+ENERGY_IMPLICIT = ContactValue(-1, -2)
 # parameters of the joint laws that only take energy out (damping, friction) or store it past a
 # limit only (compiler/tree/joint_laws.NAMES; MJCF's damping d_<joint>)
 PASSIVE_LAWS = ("d_", "damping_", "friction_", "limit_")

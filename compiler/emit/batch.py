@@ -524,6 +524,7 @@ class _Rewriter:
         self.masked = set()         # arrays stored under a mask (the other lanes' old values read)
         self.sizes = {}             # local arrays' declared sizes
         self.pairs_read = {}        # a pairs' table function -> the outputs it zeroes for full = 0 (_pairs_read)
+        self.pairs_energy = {}      # ... -> where it writes its points' elastic energy (_pairs_energy)
         self.rows_ok = False        # NAME_implicit_lanes' body: the pairs' slope block may go to rows_ (pairs_call)
         self.rows_block = None      # ... and it does: (its first output, its length)
 
@@ -790,6 +791,9 @@ class _Rewriter:
         # rest cost 4 x 8.5 kB of memset and 1059 lane puts per call of 4 states.
         nput = self.pairs_read.get(fn) if full == "0" else None
         nput = nput if nput is not None and nput <= nout else None
+        # and the points' elastic energy past them (NAME_implicit's energy slot reads it)
+        energy = self.pairs_energy.get(fn) if nput is not None else None
+        energy = energy if energy is not None and nput <= energy < nout else None
         inputs = ", ".join(self.lanes(e) for e in elems)
         rows = slopes is not None and self.rows_ok and self.rows_block is None
         if rows:
@@ -819,7 +823,8 @@ class _Rewriter:
                    if nput is None else "")
                 + f"{indent}    {name} = {fn}(in_, &{pars}[{offset}], {full}, out_{into[1]});\n"
                 f"{indent}    {self.prefix}_put_lane({array} + {first}, out_, {nout if nput is None else nput}, l_);\n"
-                f"{into[2]}"
+                + (f"{indent}    {array}[{int(first) + energy}][l_] = out_[{energy}];\n" if energy is not None else "")
+                + f"{into[2]}"
                 f"{indent}}}")
 
     def lanes(self, expr):
@@ -1134,6 +1139,18 @@ def _pairs_read(kernels):
     return {m.group(1): int(m.group(2)) for m in _PAIRS_ZERO.finditer(kernels or "")}
 
 
+# a pairs' table loop writing its points' elastic energy (table.Table.energy_at) last: ``out[E] = en;``
+_PAIRS_ENERGY = re.compile(r"^static double (eomc_pairs\w*)\((?:(?!\}\n).*\n)*?    out\[(\d+)\] = en;\n    return \w+;\n\}$",
+                           re.M)
+
+
+def _pairs_energy(kernels):
+    """{pairs' table function: the output where it writes its points' elastic energy} (its "slopes"
+    variant with the energy: NAME_implicit's energy slot reads it; pairs_call puts it in the lanes
+    beside the wrenches)."""
+    return {m.group(1): int(m.group(2)) for m in _PAIRS_ENERGY.finditer(kernels or "")}
+
+
 def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="", rows=None):
     """(C code of the lane functions, helper names used) for the scalar rhs whose body is
     ``lines`` and whose sub-functions are ``parts`` (split_body's output); ``dynamics``: the
@@ -1202,6 +1219,7 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="",
                                    + [s for s in stmts if s is not None] + ["}"]))
     rw = _Rewriter(name, ("x", "r", out) + (() if shared else ("p",)), shared, used)
     rw.pairs_read = _pairs_read(kernels)
+    rw.pairs_energy = _pairs_energy(kernels)
     rw.rows_ok = fn == "implicit" and rows is not None
     rw.pair_scan(lines)
     stmts = [_statement(rw, line, renamed) for line in lines]

@@ -92,10 +92,9 @@ class Symbolic:
     guards: tuple = ()               # rhs broad phase: (clearance, exports) (compiler/emit/guards.py)
     implicit_guards: tuple = ()      # NAME_implicit's: the exports with each point's K and C slopes
     implicit_pairs: tuple = ()       # NAME_implicit's body-body pair points after the ground's: (name, body a, body b)
-    # NAME_implicit's out[] ends with the energy output (tree/lower.implicit_layout): None, or the
-    # number of its body-body pair points (the pairs' table's, first after the ground's contacts)
-    # whose elastic energy that slot leaves out
-    implicit_energy: int = None
+    # NAME_implicit's out[] ends with the energy output (tree/lower.implicit_layout): True, else None
+    # (the whole energy: a pairs' table's points' too since session 32, tree/contacts.ENERGY_IMPLICIT)
+    implicit_energy: bool = None
     jac_guards: tuple = ()           # the analytic jac_x's: the exports with each point's world force, K and C
     chain_loop: object = None        # recursive: the rhs as loops over a repeated chain (compiler/tree/chain_loop.py)
     limbs: object = None             # recursive: the rhs with routines per limb shape (compiler/tree/limbs.py)

@@ -304,7 +304,4 @@ class Recursive(Formulation):
         joints = [list(o) for o in own if len(o) > 1]
         if joints:      # joints of several speeds, axes fixed in their child (eomc_implicit.joint)
             out["joints"] = joints
-        if sym.implicit_energy:     # the energy slot leaves these pair points out (tree/contacts.ENERGY_APART)
-            first = len(contacts)
-            out["energy_apart"] = list(range(first, first + sym.implicit_energy))
         return out

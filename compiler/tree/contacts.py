@@ -14,7 +14,7 @@ from ..contact.law import EXPONENT, ground_forces, ground_jacobians, spin_moment
 from ..contact import pairs as _pairs
 from ..contact.pairs import PairLoad, pair_guards
 from ..contact.table import lower_table
-from ..contact.tree import CLIP_KIND, ENERGY, ENERGY_APART, ContactLoad, ContactValue, contact_outputs
+from ..contact.tree import CLIP_KIND, ENERGY, ENERGY_IMPLICIT, ContactLoad, ContactValue, contact_outputs
 from .construct import _add, _mul
 from .placement import Placement
 from .spatial import cross
@@ -84,10 +84,12 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     table = [ld for ld in others if isinstance(ld, PairLoad) and not ld.spins] if _pairs.PAIR_TABLE else []
     if len(table) < _pairs.TABLE_FROM and not second:   # a few pairs stay inlined (pairs.TABLE_FROM: why)
         table = []
+    table_energy = {}       # the table's points' elastic energy as its slopes loop sums it (NAME_implicit's)
     if table:               # every pair in one table-driven call (compiler/contact/table.py)
         wrenches = [] if analytic is not None else None
         info = {} if analytic is not None else None
-        values.update(lower_table(table, bodies, rec, v, rename, poses, wrenches, pair_slopes, info))
+        values.update(lower_table(table, bodies, rec, v, rename, poses, wrenches, pair_slopes, info,
+                                  energy=table_energy if pair_slopes is not None else None))
         if analytic is not None and not spinning:   # the analytic jac_x takes their tangents (tree/analytic.py);
             analytic["pairs"] = wrenches            # with inlined pairs beside the table: the tangent path
             analytic["pair_call"] = info
@@ -240,15 +242,19 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         if springs is not None:
             limits += rename(springs, "the joint springs' energy")
         if implicit is not None and implicit.get("energy") and table:
-            # NAME_implicit's energy (ENERGY_APART) without the table's pairs: their depths are
-            # the loop's outputs, which NAME_implicit's slopes variant does not write (its slope
-            # block holds them); the fixed step reads it only while none of them touches
-            # (implicit["energy_apart"]; eomc_implicit.energy_apart)
+            # NAME_implicit's energy (ENERGY_IMPLICIT): the table's pairs' elastic energy is not
+            # the sum of _pair_energy's terms there (their depths are the loop's outputs, which
+            # its slopes variant does not write: its slope block holds them) but the loop's own
+            # sum of the same terms over its points in touch (table.Table.energy_at), equal to
+            # NAME_energy's to rounding (the order of the sum).  Why: without them the fixed
+            # step's energy watch called NAME_energy while a pair touched, 11-13 % of gymnasium's
+            # humanoid's lanes rollout (session 32, benchmarks/results/rollout_contacts.md)
             apart = rec.let(_energy(bodies, v, poses, *energy, rec.let_apart)
                             + sm.Add(*elastic, *_pair_energy(inlined, values, rename)) + limits)
-            values[ENERGY_APART] = apart
+            # (not a temporary of its own: one more would renumber the later ones, and SymPy orders
+            # a sum's terms by their names: the rhs's C and bits would change with it)
+            values[ENERGY_IMPLICIT] = apart + table_energy["energy"]
             values[ENERGY] = rec.let(apart + sum(_pair_energy(table, values, rename), sm.S.Zero))
-            implicit["energy_apart"] = len(table)
         elif len(energy) > 2:     # the bodies' part left to the caller (.body_loops: a loop, or deferred_energy)
             elastic += _pair_energy(others, values, rename)
             energy[2]["energy"] = _defer_energy(bodies, v, poses, *energy[:2], rec)

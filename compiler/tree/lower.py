@@ -364,8 +364,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         else:   # not computed: a stand-in with M's structure (for the metadata)
             A, b = _structure(tree), [0] * nu
         if implicit is not None:
-            from ..contact.tree import ENERGY, ENERGY_APART
-            energy = (contact_values.get(ENERGY_APART, contact_values.get(ENERGY))
+            from ..contact.tree import ENERGY, ENERGY_IMPLICIT
+            energy = (contact_values.get(ENERGY_IMPLICIT, contact_values.get(ENERGY))
                       if wants_energy and implicit["energy"] else None)
             extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo, renamed,
                                        energy)
@@ -399,7 +399,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         sym = replace(sym, jac_guards=tuple(ground["guards"]))
     if wants_energy:
         sym = replace(sym, energy=energy_text(tree),
-                      implicit_energy=implicit.get("energy_apart", 0) if implicit and implicit["energy"] else None)
+                      implicit_energy=True if implicit and implicit["energy"] else None)
     if regressor:
         sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
     if analytic is not None:
@@ -598,10 +598,11 @@ def implicit_layout(nq, nu, ncontact, energy=False):
                        compiler/contact/pairs.law_slopes; depth and point 0 where the pair's
                        broad phase skips it)
         energy 1       (``energy``: built with implicit_batch and an ``energy`` output) that
-                       output at the call's state, less a pairs' table's points (ENERGY_APART):
-                       the fixed step makes the terms at every step's end anyway, so the lanes
-                       rollout's energy watch reads it there instead of calling NAME_energy (19-20 %
-                       of G1's lanes rollout, session 18; eomc_implicit.energy)"""
+                       output at the call's state (a pairs' table's points' elastic energy summed
+                       by its slopes loop: ENERGY_IMPLICIT): the fixed step makes the terms at every
+                       step's end anyway, so the lanes rollout's energy watch reads it there instead
+                       of calling NAME_energy (19-20 % of G1's lanes rollout, session 18;
+                       eomc_implicit.energy)"""
     out, pos = {}, 0
     for key, size in (("M", nu * nu), ("f", nu), ("qd", nq), ("N", nq * nu), ("screw", 6 * nu),
                       ("joint", 2 * nu), ("contact", 25 * ncontact)):
