@@ -4,14 +4,21 @@ metadata's layout."""
 import numpy as np
 
 
+def call_into(model, fn, x, out, p=None):
+    """Status of the model's generated NAME_<fn> (NAME_implicit, _implicit_var, ...) at state
+    ``x`` into the array ``out`` (t = 0; ``p`` or the default parameters; the default inputs)."""
+    ffi = model.ffi
+    fp = ffi.addressof(model.model_lib, f"{model.name}_{fn}")
+    par = model._default_p if p is None else ffi.from_buffer("double[]", p)
+    r = model._default_r if model.ninput else ffi.NULL
+    return fp(0.0, ffi.from_buffer("double[]", np.ascontiguousarray(x, dtype=float)), par, r,
+              ffi.from_buffer("double[]", out), ffi.NULL)
+
+
 def implicit_terms_at(model, x):
     """(out, layout): NAME_implicit's output at state ``x`` (t = 0, the model's default
     parameters and inputs) and the metadata's layout of it; asserts status 0."""
     layout = model.metadata["implicit"]["layout"]
     out = np.zeros(layout["size"])
-    ffi = model.ffi
-    fp = ffi.addressof(model.model_lib, f"{model.name}_implicit")
-    r = model._default_r if model.ninput else ffi.NULL
-    status = fp(0.0, ffi.from_buffer("double[]", x), model._default_p, r, ffi.from_buffer("double[]", out), ffi.NULL)
-    assert status == 0
+    assert call_into(model, "implicit", x, out) == 0
     return out, layout

@@ -15,6 +15,8 @@ import pytest
 
 import eomc
 
+from helpers.implicit_call import call_into
+
 from .test_narrow import LIMBS
 
 
@@ -35,11 +37,7 @@ def limbs(tmp_path_factory):
 def _implicit(m, x, fill):
     """(status, out) of NAME_implicit at x with out[] holding ``fill`` before the call."""
     out = np.array(fill, dtype=float)
-    ffi = m.ffi
-    fp = ffi.addressof(m.model_lib, f"{m.name}_implicit")
-    status = fp(0.0, ffi.from_buffer("double[]", np.ascontiguousarray(x, dtype=float)), m._default_p,
-                ffi.NULL, ffi.from_buffer("double[]", out), ffi.NULL)
-    return status, out
+    return call_into(m, "implicit", x, out), out
 
 
 def test_the_loop_writes_the_block_into_out(limbs):
@@ -143,11 +141,7 @@ def test_the_verdict_is_every_entrys_at_states_in_and_out_of_touch(limbs):
 # bit, along a walk of states in and out of touch, through a call refused for a NaN parameter.
 
 def _var(m, x, out, p=None):
-    ffi = m.ffi
-    fp = ffi.addressof(m.model_lib, f"{m.name}_implicit_var")
-    pp = m._default_p if p is None else ffi.from_buffer("double[]", p)
-    return fp(0.0, ffi.from_buffer("double[]", np.ascontiguousarray(x, dtype=float)), pp, ffi.NULL,
-              ffi.from_buffer("double[]", out), ffi.NULL)
+    return call_into(m, "implicit_var", x, out, p)
 
 
 def test_var_keeps_the_block_and_equals_the_whole_call(limbs):

@@ -15,6 +15,8 @@ from eomc.compiler.emit import generate
 from eomc.compiler.emit.forward import forwarded_outputs
 from eomc.compiler.emit.packed import packed_inputs
 
+from helpers.implicit_call import call_into
+
 from ..contact.test_narrow import LIMBS
 
 
@@ -47,12 +49,7 @@ def _var_body(source):
     return source[at:source.index("\n}\n", at)]
 
 
-def _call(m, fn, x, out, p=None):
-    ffi = m.ffi
-    fp = ffi.addressof(m.model_lib, f"{m.name}_{fn}")
-    par = m._default_p if p is None else ffi.from_buffer("double[]", p)
-    return fp(0.0, ffi.from_buffer("double[]", np.ascontiguousarray(x, dtype=float)), par, ffi.NULL,
-              ffi.from_buffer("double[]", out), ffi.NULL)
+_call = call_into
 
 
 def test_the_passes_took_the_literal_and_copies(both):
