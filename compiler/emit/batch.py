@@ -657,7 +657,7 @@ class _Rewriter:
                     self.pre += [f"eomc_vd sin_{k}, cos_{k};", f"{self.prefix}_vsincos({angle}, &sin_{k}, &cos_{k});"]
                 out.append(f"{name}_{self.sincos[angle]}")
             elif name in ("sin", "cos") and len(args) == 1:
-                self.used.add("trig")
+                self.used |= {"trig", f"v{name}"}
                 out.append(f"{self.prefix}_v{name}({new[0]})")
             elif name == "eomc_tanh0" and len(args) == 1:         # printer.MINMAX_C's, in lanes
                 self.used.add("tanh0")
@@ -1284,6 +1284,24 @@ def _pair_lanes(name, fn, body):
                       f"eomc_vd *xdot, eomc_vd *xdot_1, int *st, int *st_1)", "{"] + out + ["}"])
 
 
+def _trig_blocks(name, used):
+    """[(key, C text)] of VECTOR_TRIG's parts a lane code calls: the kernels and NAME_vsincos
+    always, NAME_vtrig and the lone NAME_vsin / NAME_vcos only where an angle's sin or cos is
+    taken alone (``"vsin"``, ``"vcos"`` in ``used``).  Why: most bodies pair every angle into
+    vsincos, and an unused static function is a clang -Wunused-function warning in every
+    lanes build (the guide: generated C clean under -Wall -Wextra with gcc and clang)."""
+    text = VECTOR_TRIG.format(p=name)
+    cut = [text.index(f"static EOMC_VTARGET EOMC_VINLINE eomc_vd {name}_v{f}(") for f in ("trig", "sin", "cos")]
+    cut.append(text.index("/* sin and cos of one angle from one reduction"))
+    blocks = [("trig", text[:cut[0]] + text[cut[3]:])]
+    if used & {"vsin", "vcos"}:
+        blocks.append(("vtrig", text[cut[0]:cut[1]].rstrip() + "\n"))
+    for key, start, end in (("vsin", cut[1], cut[2]), ("vcos", cut[2], cut[3])):
+        if key in used:
+            blocks.append((key, text[start:end].rstrip() + "\n"))
+    return blocks
+
+
 def helper_blocks(name, used):
     """[(key, C text)] of the static helpers the lane code calls (vset, sin/cos, lane-wise libm):
     keyed so that a second batch function in the same file (jac_x_batch after rhs_batch)
@@ -1292,7 +1310,7 @@ def helper_blocks(name, used):
     if "vset" in used or any(f in MATH2 for f in used):
         code.append(("vset", _VSET.format(p=name)))
     if "trig" in used:
-        code.append(("trig", VECTOR_TRIG.format(p=name)))
+        code += _trig_blocks(name, used)
     if "chain_trig" in used:
         code.append(("chain_trig", _CHAIN_TRIG.format(p=name)))
     if "mask" in used:

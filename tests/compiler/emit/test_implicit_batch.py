@@ -10,6 +10,8 @@ becomes masks and masked stores, a branch on parameters stays a C branch.
 
 Oracle: the scalar NAME_implicit and NAME_rhs of the same library (the same expressions)."""
 import re
+import shutil
+import subprocess
 import warnings
 from pathlib import Path
 
@@ -115,6 +117,19 @@ def test_hopper_implicit_and_rhs_in_lanes_with_contacts_on_and_off(cache, trig):
         assert (np.abs(got - want) / np.maximum(np.abs(want), 1.0)).max() < 1e-9
         assert (np.abs(rhs_got - rhs_want) / np.maximum(np.abs(rhs_want), 1.0)).max() < 1e-9
         assert np.mean(got == want) > 0.9
+
+
+@pytest.mark.skipif(shutil.which("clang") is None, reason="clang is not installed (CI installs it: .ci/run)")
+def test_the_lanes_c_is_clean_under_clang_too(cache):
+    """The lanes build's C (its sin/cos kernels among the helpers) is warning-free under clang's
+    -Wall -Wextra as under gcc's: a helper no lane code calls (the lone vsin/vcos where every
+    angle is paired into vsincos) is not emitted.  clang flagged both in every lanes build."""
+    model = _hopper(cache, STRICT)
+    source = Path(model.directory) / f"{model.name}.c"
+    assert f"{model.name}_vsincos(" in source.read_text()
+    done = subprocess.run(["clang", "-std=c99", "-O1", "-fPIC", "-Wall", "-Wextra", "-Werror", "-fsyntax-only",
+                           source.name], cwd=source.parent, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-3000:]
 
 
 # Two legs hanging from a torso on a planar root, a sphere foot each: the feet are one self-pair
