@@ -88,10 +88,13 @@ def run(args):
     x0 = cli_common.initial_state(model, given)
     p = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     # only when it is so (first hour s27: gymnasium's half_cheetah.xml has an initial_state, its
-    # qpos0, all zeros, and was said to have none)
+    # qpos0, all zeros, and was said to have none; s33: Solo12, whose start the note above had
+    # just lifted onto the ground, was said to start at x = 0)
     if getattr(model, "initial_state", None) is None and not given and not args.quiet:
+        moved = [f"{n} = {v:.6g}" for n, v in x0.items() if v]
+        at = "x = 0" + (f" but {', '.join(moved[:6])}{' ...' if len(moved) > 6 else ''}" if moved else "")
         print(f"eomc report: {model.name} has no initial_state and no --x0 was given: "
-              f"starting from rest at x = 0", file=sys.stderr)
+              f"starting from rest at {at}", file=sys.stderr)
     from eomc.errors import SimulationError
     from eomc.runtime.stability import EXIT_INCONCLUSIVE
     try:

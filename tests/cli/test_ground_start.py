@@ -86,3 +86,16 @@ def test_a_welded_robot_in_the_ground_is_told_to_float_and_warned_in_short(tmp_p
     assert "bodies leg" in text and " and 2 more (" in text.split("bodies leg")[1], text
     assert text.count("the robot passed through the floor there") == 1, text
     assert len(text) < 1000, len(text)
+
+
+def test_report_says_the_lifted_start_is_not_x_0(block, tmp_path, capsys):
+    """`eomc report` on a floating robot with no initial_state lifted its start onto the ground
+    (the note) and then said it started "from rest at x = 0" (first hour s33, Solo12 and Go2):
+    it names the state it moved."""
+    code = main(["report", str(block), "--floating-base", "--contact", "body:0,0,-0.1:0.05",
+                 "--t-final", "0.05", "--methods", "bdf", "--tolerances", "1e-3", "--repeats", "1",
+                 "-o", str(tmp_path / "rep")])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert "starting with q_body_floating_z = 0.151" in err, err
+    assert "starting from rest at x = 0 but q_body_floating_z = 0.151" in err, err
