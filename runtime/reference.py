@@ -28,6 +28,7 @@ import numpy as np
 
 from eomc.runtime.errors import SimulationError
 
+from .progress import stage
 from .simulate import finish, prepare, run_prepared, scipy_fun
 
 __all__ = ["Reference", "compute_reference", "scaled_error", "state_scale", "SCALE_FLOOR",
@@ -267,7 +268,8 @@ def compute_reference(model, x0, t_span, t_eval, p=None, r=None, tol=1e-13, chec
     if check in ("radau", "dop853-half"):
         how, check_tol = ("radau", max(tol, RADAU_FINEST)) if check == "radau" else ("dop853", tol / 2)
         check_atol = atol if check == "radau" else atol / 2
-        other, _, _ = _c_run(model, x0, t_span, p, r, t_eval, how, check_tol, project, atol=check_atol)
+        with stage(f"its check, {how} at rtol={check_tol:g}"):      # named in the progress lines
+            other, _, _ = _c_run(model, x0, t_span, p, r, t_eval, how, check_tol, project, atol=check_atol)
         if other.status:
             raise SimulationError(f"the reference check failed: {other.message}")
         other_x = other.x

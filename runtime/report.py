@@ -46,7 +46,7 @@ from .reference import MIN_WINDOW, Reference, compute_reference, plan, scaled_er
 from .report_output import (COLUMNS, DEFAULT_TARGET, cost_key, cpu_ms, plot_report, recommendation,
                             summary_markdown, table_text, write_csv)
 from .diagnose import leaving_state
-from .progress import bar, ticker
+from .progress import bar, integration, stage, ticker
 from .simulate import bind_call, finish, prepare, resolve_method, run_prepared
 
 __all__ = ["work_precision", "WorkPrecisionReport", "DEFAULT_METHODS", "DEFAULT_TOLERANCES",
@@ -275,7 +275,11 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
         if progress:
             print(f"eomc report: computing the reference ({plan(reference_method, rtol, atol)}; "
                   f"checked by {reference_check}) ...", file=sys.stderr, flush=True)
-        with ticker("eomc report: reference", sys.stderr, progress):
+        # its runs say how far they got, as simulate's and check's do: in a log, a line per 10 % of
+        # the span and 5 s (first hour s33: G1's reference, DOP853 then its Radau check, ran
+        # minutes without a line); on a terminal, the ticker's live line
+        with ticker("eomc report: reference", sys.stderr, progress) as live, \
+                integration("eomc report", sys.stderr, progress, ticker=live), stage("reference"):
             reference = compute_reference(model, x0, (t0, t1), t_eval, p=p, r=r, tol=rtol, atol=atol,
                                           check=reference_check, project=project,
                                           method=reference_method)

@@ -78,3 +78,26 @@ def test_on_a_terminal_the_tickers_live_line_shows_the_run():
         read = iter([(0.5, 10), (1.0, 20)] + [(2.0, 40)] * 100)
         progress.follow_integration(lambda: next(read), 0.0, 2.0, lambda: __import__("time").sleep(0.6))
     assert notes and notes[0].startswith("reference: radau at rtol=1e-10, atol=1e-12: t=0.5 of 2 (25 %), 10 steps")
+
+
+def test_the_reports_reference_prints_lines_naming_it(built, capsys, monkeypatch, tmp_path):
+    """`eomc report`'s reference (DOP853 at 1e-13, then its check) printed nothing in a log until
+    it ended (first hour s33: G1's took minutes, 113 s its DOP853 alone): its lines now say how far
+    it got, as check's and simulate's do."""
+    monkeypatch.setattr(progress, "LINE_SECONDS", 0.0)
+    monkeypatch.setattr(progress, "POLL_S", 0.0005)
+    capsys.readouterr()
+    # the reference is tied to the finest tolerance (1e-6 here); over 3000 s the pendulum's runs part
+    # (exit 3, inconclusive): the lines are what is tested
+    assert main(["report", str(built), "--t-final", "3000", "--methods", "dop853", "--tolerances", "1e-3",
+                 "--repeats", "1", "--reference-check", "dop853-half", "-o", str(tmp_path / "rep")]) in (0, 3)
+    err = capsys.readouterr().err
+    line = re.compile(r"^eomc report: reference(: its check, dop853 at rtol=5e-07)?: t = (\S+) of \[0, 3000\] "
+                      r"\((\d+) %\), (\d+) steps, \d+ s$")
+    parsed = [line.match(text) for text in err.splitlines() if text.startswith("eomc report: reference")
+              and " t = " in text]
+    assert parsed and all(parsed), err
+    primary = [int(m.group(3)) for m in parsed if not m.group(1)]
+    check = [int(m.group(3)) for m in parsed if m.group(1)]
+    for shares in (primary, check):     # each run's lines rise to its end
+        assert shares and shares == sorted(shares) and shares[-1] == 100, err
