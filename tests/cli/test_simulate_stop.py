@@ -60,3 +60,40 @@ def test_a_stopped_run_writes_its_rows_marked_as_stopped(built, tmp_path, sig, s
     assert rows.size >= 1 and np.all(np.isfinite(rows["q"]))
     assert f"wrote the {rows.size} rows computed up to t=" in proc.stderr, proc.stderr
     assert f"eomc simulate: {what.split()[0]}" in proc.stderr
+
+
+SLOW_MODEL = textwrap.dedent("""
+    import atexit, pathlib, sys, time
+    from eomc.mechanics import *
+    here = pathlib.Path(__file__).parent
+    atexit.register(lambda: (here / "torn_down").write_text("the interpreter's exit ran"))
+    (here / "ready").write_text("deriving")
+    time.sleep(120)                      # a long derivation, stopped here
+""")
+
+
+@pytest.mark.parametrize("sig, status", [("SIGTERM", 143), ("SIGINT", 130)])
+def test_the_stopped_program_ends_at_once(tmp_path, sig, status):
+    """`eomc simulate` stopped while building ends when it says so (first hour s33: it printed
+    "terminated" and then lived on 9 s on G1, ~20 s on dm_control's quadruped, freeing the
+    build's SymPy graphs in the interpreter's teardown): the program leaves by os._exit once the
+    stop has unwound, so the teardown (here an atexit hook, run by it) does not run; main([...])
+    called from Python returns as before (the test above)."""
+    import os
+    import signal
+    import time
+    (tmp_path / "slow.py").write_text(SLOW_MODEL)
+    child = ("import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+             "from eomc.cli import main; sys.argv = ['eomc', 'simulate', 'slow.py', '-o', 'traj.csv']; "
+             "sys.exit(main())")
+    env = dict(os.environ, EOMC_CACHE_DIR=str(tmp_path / "cache"))
+    proc = subprocess.Popen([sys.executable, "-c", child], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not (tmp_path / "ready").exists() and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    proc.send_signal(getattr(signal, sig))
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == status, out + err
+    assert ("terminated" if sig == "SIGTERM" else "interrupted") in err, err
+    assert not (tmp_path / "torn_down").exists()
