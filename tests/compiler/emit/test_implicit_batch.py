@@ -273,6 +273,41 @@ def test_the_pairs_slope_block_goes_into_each_states_own_row(tmp_path, monkeypat
     assert list(status) == want_status and want_status[1] != 0 and want_status[0] == 0
 
 
+def test_the_lanes_finiteness_check_by_sums_gives_the_entry_by_entry_verdict(tmp_path):
+    """NAME_implicit_batch's check of a group's outputs (batch._finite_by_sum: the sums first, entry
+    by entry only in a group where a lane's sum is not finite) marks exactly the lanes with an inf
+    or NaN entry in its ranges -- also where finite entries' sum overflows (not marked), a +inf
+    and a -inf cancel to NaN (marked), and a condition leaves a range out (its NaN not marked)."""
+    import ctypes
+    import subprocess
+    from eomc.compiler.emit.batch import _finite_by_sum
+    L, n = 4, 43
+    code = ("typedef double eomc_vd __attribute__((vector_size(8 * 4)));\n"
+            "typedef unsigned long long eomc_vu __attribute__((vector_size(8 * 4)));\n"
+            "void check(const double *v, int skip, int *marked)\n{\n"
+            "    enum { L = 4 };\n    const eomc_vd *xo = (const eomc_vd *)v;\n    eomc_vu bad = {0};\n    int i, l;\n"
+            + _finite_by_sum("xo", [(0, 20, None), (37, n, None), (20, 37, "!skip")])
+            + "    for (l = 0; l < L; l++) marked[l] = bad[l] != 0;\n}\n")
+    (tmp_path / "f.c").write_text(code)
+    subprocess.run(["cc", *STRICT.split(), "-shared", "-o", str(tmp_path / "f.so"), str(tmp_path / "f.c")],
+                   check=True)
+    check = ctypes.CDLL(str(tmp_path / "f.so")).check
+    v = np.random.default_rng(3).normal(size=(n, L))
+    v[5, 0] = np.nan                    # lane 0: a NaN
+    v[:, 1] = 1e308                     # lane 1: finite, its sums overflow
+    v[2, 2], v[40, 2] = np.inf, -np.inf   # lane 2: the sum NaN
+    v[30, 3] = np.nan                   # lane 3: a NaN in the range left out when skip
+    for skip, want in ((0, [1, 0, 1, 1]), (1, [1, 0, 1, 0])):
+        marked = (ctypes.c_int * L)()
+        buf = np.ascontiguousarray(v)
+        check(buf.ctypes.data_as(ctypes.c_void_p), skip, marked)
+        assert list(marked) == want
+    fine = np.ones((n, L))
+    marked = (ctypes.c_int * L)()
+    check(fine.ctypes.data_as(ctypes.c_void_p), 0, marked)
+    assert list(marked) == [0, 0, 0, 0]
+
+
 def _lanes(lines, fn="implicit"):
     code, used = batch_rhs("m", lines, [], fn=fn, out="out")
     return code, used
