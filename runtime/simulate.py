@@ -550,9 +550,6 @@ def implicit_terms(model):
             st.nfree, st.free = len(free), keep[3]
             st.work_len = model.integrators.eomc_fs_implicit_work_size(model.nq, model.nu, len(contacts))
             st.energy = int("energy" in info["layout"])     # its out[] ends with the energy (the watch's)
-            apart = [int(k) for k in info.get("energy_apart", ())]
-            keep += (ffi.new("int[]", apart or [0]),)
-            st.nenergy_apart, st.energy_apart = len(apart), keep[-1]
             if joint is not None:
                 keep += (ffi.new("int[]", joint),)
                 st.joint = keep[-1]
@@ -624,7 +621,7 @@ def implicit_for_run(model, p, split=IMPLICITFAST_SPLIT):
     st.terms, st.ncontact, st.chain_start, st.chain = base.terms, base.ncontact, base.chain_start, base.chain
     st.parent, st.work_len, st.depth_limit, st.split = base.parent, base.work_len, lim, float(split)
     st.nfree, st.free, st.terms_const, st.energy = base.nfree, base.free, base.terms_const, base.energy
-    st.nenergy_apart, st.energy_apart, st.joint = base.nenergy_apart, base.energy_apart, base.joint
+    st.joint = base.joint
     return st, (st, lim, base)     # the caller keeps the second alive while C runs
 
 

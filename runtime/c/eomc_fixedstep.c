@@ -2455,12 +2455,7 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
     *x1 = q->x1;
     *f1 = q->f1;          /* not used by the fast path; accept writes it only when projecting */
     *e1 = NULL;           /* the energy at x1: T holds the terms there (the last take's T1) */
-    if (ops->imp->energy) {
-        int touch = 0;    /* a contact the slot leaves out touches: the watch evaluates it */
-        for (int k = 0; k < ops->imp->nenergy_apart && !touch; k++)
-            touch = q->T[q->L.contact + 25 * (size_t)ops->imp->energy_apart[k]] > 0.0;
-        if (!touch) *e1 = q->T + q->L.energy;
-    }
+    if (ops->imp->energy) *e1 = q->T + q->L.energy;
     return EOMC_OK;
 }
 

@@ -112,11 +112,6 @@ typedef struct eomc_implicit {
        watch (eomc_options.watch_output) then reads from the terms it made at each step's end
        instead of calling watch_fn; 0: none */
     int energy;
-    /* the contacts (nenergy_apart indices, may be NULL when 0) whose elastic energy that slot leaves
-       out (body-body pairs of a pairs' table: compiler/tree/contacts.ENERGY_APART): while one of
-       them touches (depth > 0) the watch calls watch_fn */
-    int nenergy_apart;
-    const int *energy_apart;
     /* NULL (every joint of several speeds is a root free joint, or there is none), or nu: each
        speed's joint's first speed (NAME.json implicit.joints: a ball, a planar joint, a free joint
        below the root; the others their own).  Their axes are fixed in their child body, so each
