@@ -29,7 +29,8 @@ between its two places in Y's frame (the rows of a fixed step are its steps; of 
 method, the output grid: ``n_points``/``t_eval``), and its closest approach to Y is found exactly
 (a sphere, capsule) or by golden section (box, cylinder: their signed distance is convex along a
 line).  A row where the pair's bodies turn far relative to each other bends that path; the chord
-then errs by its sagitta, R·θ²/8.
+then errs by its sagitta, R·θ²/8 -- but for a sphere Y, whose turn changes no distance: its path is
+taken in world axes about its centre (:func:`_round_axes`).
 
 Cost: one ``NAME_poses`` call per row and numpy over the pairs, after the run (none in the rhs or
 in a step); measured in benchmarks/results/pair_check.md.  A sphere or capsule pair is not placed
@@ -209,6 +210,7 @@ def pair_overlaps(shape_x, shape_y, cx, Rx, cy, Ry, fraction=PASS_FRACTION, prun
     ky, sy = shape_y["kind"], shape_y["size"]
     allow = (1.0 - fraction) * inner_size(shape_x["kind"], shape_x["size"])
     below = allow if pruned else None
+    Ry = _round_axes(Ry, ky == "sphere")
     local = np.einsum("nji,nj->ni", Ry, cx - cy)         # X's centre in Y's frame
     if shape_x["kind"] == "capsule":
         h = float(shape_x["size"][1])
@@ -501,6 +503,19 @@ def _candidates(C, R, ga, gb, bound, half, allow):
     return np.flatnonzero(near)
 
 
+def _round_axes(R, ball):
+    """Y's axes R (..., 3, 3), the world's where ``ball`` (a sphere Y, (...,) or a bool): a sphere's
+    turn changes no distance from it, so X's path between two rows is the straight line in world axes
+    about its centre.  Why: in a spinning ball's own frame the straight path is a chord across the
+    ball (its sagitta R·θ²/8 is the turn's, not the motion's): dm_control's manipulator, its ball
+    spinning at 50.6 rad/s, 2.5 rad between `eomc check`'s rows 0.05 s apart, was named as passing
+    through the pommel, whose law's depth shows 0.14 mm at most (first hour s33)."""
+    ball = np.asarray(ball, dtype=bool)
+    if not ball.any():
+        return R
+    return np.where(ball[..., None, None], np.eye(3), R)
+
+
 def _tdot(R, v):
     """R^T v for R (..., 3, 3), v (..., 3), by components (numpy's reductions over an axis of 3 are slow)."""
     return np.stack([R[..., 0, i] * v[..., 0] + R[..., 1, i] * v[..., 1] + R[..., 2, i] * v[..., 2]
@@ -566,9 +581,11 @@ def _measure(C, R, r, xs, ys, kinds, size, half, allow, r1=None):
         m = np.flatnonzero(ykind == ky)
         x, y, k, k1 = xs[m], ys[m], r[m], r1[m]
         sy, a = size[y], allow[x]
-        local = _tdot(R[k, y], C[k, x] - C[k, y])              # X's centre in Y's frame, at r and at r + 1
-        local1 = _tdot(R[k1, y], C[k1, x] - C[k1, y])
-        axis = _tdot(R[k, y], R[k, x][..., 2]) * half[x][:, None]      # X's core: local -/+ axis (0: a point)
+        ball = np.array([kinds[j] == "sphere" for j in y], dtype=bool)
+        Ryk, Ryk1 = _round_axes(R[k, y], ball), _round_axes(R[k1, y], ball)
+        local = _tdot(Ryk, C[k, x] - C[k, y])                  # X's centre in Y's frame, at r and at r + 1
+        local1 = _tdot(Ryk1, C[k1, x] - C[k1, y])
+        axis = _tdot(Ryk, R[k, x][..., 2]) * half[x][:, None]          # X's core: local -/+ axis (0: a point)
         last = k1 == k
         if ky == "capsule":
             hy = half[y][:, None] * np.array([0.0, 0.0, 1.0])

@@ -440,3 +440,37 @@ def test_shipped_pair_models_are_not_named(where, name, tmp_path):
         res, said = _run(model, model.initial_state, T=2.0, **kw)
         assert res.status == 0, res.message
         assert not any(PASSED in s for s in said), said
+
+
+def test_a_spinning_ball_is_not_crossed_by_a_chord_in_its_own_frame():
+    """A small sphere X passing 5 cm from a ball Y (r 5 cm) that turns 2.5 rad between two rows (first
+    hour s33: dm_control's manipulator, its ball spinning at 50.6 rad/s, `eomc check`'s rows 0.05 s
+    apart, was named as passing through the pommel; the law's depth was 0.14 mm at most).  In the
+    ball's own frame X's straight path was a chord across the ball; a sphere's turn changes no
+    distance, so the path is taken in world axes about its centre: both the reference measure
+    (pair_overlaps) and the fast one (_measure) keep 5 cm less X's allowance.  A capsule Y, whose
+    turn matters, keeps its own frame."""
+    def rot_y(a):
+        c, s = np.cos(a), np.sin(a)
+        return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    ball, small = {"kind": "sphere", "size": [0.05, 0, 0]}, {"kind": "sphere", "size": [0.02, 0, 0]}
+    cy = np.zeros((2, 3))
+    Ry = np.stack([np.eye(3), rot_y(2.5)])
+    cx = np.array([[0.1, 0.0, 0.0], [0.1, 0.0, 0.02]])
+    Rx = np.stack([np.eye(3)] * 2)
+    rows, between = pc.pair_overlaps(small, ball, cx, Rx, cy, Ry, pruned=False)
+    allow = (1.0 - pc.PASS_FRACTION) * 0.02
+    assert rows == pytest.approx([0.05 - allow, np.hypot(0.1, 0.02) - 0.05 - allow], abs=1e-12)
+    assert between == pytest.approx([0.05 - allow], abs=1e-12)
+    # the fast measure, shapes (Y, X) along two rows
+    C = np.stack([cy, cx], axis=1)
+    R = np.stack([Ry, Rx], axis=1)
+    kinds, size = ["sphere", "sphere"], np.array([[0.05, 0, 0], [0.02, 0, 0]])
+    half, allowed = np.zeros(2), np.array([0.0, allow])
+    at, path = pc._measure(C, R, np.array([0]), np.array([1]), np.array([0]), kinds, size, half, allowed)
+    assert at[0] == pytest.approx(0.05 - allow, abs=1e-12) and path[0] == pytest.approx(0.05 - allow, abs=1e-12)
+    # a capsule Y (half length 0.05 along its z) turning the same way keeps its own frame: there the
+    # chord from (0.1, 0, 0) to X's place in the turned frame passes the capsule's segment closer
+    capsule = {"kind": "capsule", "size": [0.05, 0.05, 0]}
+    _, between_capsule = pc.pair_overlaps(small, capsule, cx, Rx, cy, Ry, pruned=False)
+    assert between_capsule[0] < between[0]
