@@ -274,7 +274,7 @@ def test_a_hard_split_does_not_retry_the_half_that_holds_the_onset(ant_euler):
 def test_the_avx2_build_of_the_step_gives_the_sse2_builds_bits(ant, monkeypatch):
     """eomc_fs_run hands a run to its AVX2 copy (eomc_fixedstep_avx2.c) where the CPU has AVX2; the copy
     must take the same steps to the bit as the SSE2 build ($EOMC_FS_NO_AVX2 runs that one): AVX2 has no
-    fused multiply-add and C99 contracts nothing.  gymnasium's ant from its qpos0 at 10 ms for 1 s (121
+    fused multiply-add and C99 contracts nothing.  gymnasium's ant from its qpos0 at 10 ms for 1 s (119
     model calls: touch-downs, located onsets, split steps), every output row and the counts."""
     import ctypes
     from eomc.runtime.cpu import cpu_features
@@ -345,6 +345,41 @@ def test_a_falling_foots_touch_down_is_located_in_its_own_cell(ant):
     assert implicit_terms_at(m, _unchecked_step(m, before, dt / 64))[0][depths].max() > 0.0
     assert step.status == 0
     assert step.stats["nfev"] == 10    # the start's call; the whole try, the part, cell 23, 6 back up the grid
+
+
+def test_a_step_whose_only_change_is_a_limit_letting_go_is_taken_whole(ant):
+    """gymnasium's ant from its qpos0 at 10 ms: at t = 0.21 s its four ankles leave the upper limits
+    they hit at t = 0.15 s (each limit law's stiffness and damping slopes fall more than SWITCH_FACTOR-
+    fold over the step), the feet in touch with no contact changing regime.  The whole try's ratio is
+    0.68 (split 0.5), its halves' 0.36 and 0.04: what halving buys is calls.  Such a try, up to
+    FRICTION_FACTOR x split, is taken whole as a stick/slip step is (eomc_fixedstep.c, fs_releases):
+    the start's matrix holds the limits' stiffer slopes, so the linearised release falls short of the
+    law's and the step's end holds less energy than the exact one's, never more.  Oracle: DOP853 at
+    1e-11 from the same state, the energy with the limit springs the output leaves out.  Fails on main
+    8af7938a (4 calls: the whole try, then both halves)."""
+    from eomc.runtime import switching
+    m = ant
+    names, dt, run, step = _ant_from_qpos0(m, 0.21, [0.21], -1)
+    x = run.x[-1]
+    layout = m.metadata["implicit"]["layout"]
+    ankles = np.array([names.index(f"q_ankle_{i}") for i in range(1, 5)]) - 1   # their speeds (the root's
+    start, _ = implicit_terms_at(m, x)                                           # quaternion: nq = nu + 1)
+    end, _ = implicit_terms_at(m, _unchecked_step(m, x, dt))
+    slopes0 = start[layout["joint"] + 2 * ankles[:, None] + np.array([0, 1])]
+    slopes1 = end[layout["joint"] + 2 * ankles[:, None] + np.array([0, 1])]
+    assert np.all(slopes0 > 2.0 * slopes1) and np.all(slopes0[:, 1] > 1e3)    # the limits let go
+    assert step.status == 0
+    assert step.stats["nfev"] == 2          # the start's call and the whole try (main: 4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref = m.simulate(x, (0.0, dt), method="dop853", rtol=1e-11, atol=1e-11, t_eval=[dt])
+    sw, p = switching.find_switches(m), np.array(m.param_defaults, dtype=float)
+
+    def total(state):
+        return float(m.outputs(0.0, state)["energy"] + switching._springs_along(m, p, sw, np.array([state]))[0])
+    assert total(step.x[-1]) <= total(ref.x[-1])                   # measured: 6.9941 J against 7.0096 J
+    assert total(step.x[-1]) < total(x)                           # 9.2307 J at the start
+    assert np.abs(step.x[-1][:m.nq] - ref.x[-1][:m.nq]).max() < 2e-3   # measured: 6.5e-4
 
 
 # gymnasium's ant at t = 0.3 s of bench_rollout_contacts' row 34 (main's implicitfast at 10 ms, 746cef3),
