@@ -21,6 +21,7 @@ references agree on says so instead of trusting the reference silently.
 The error measure used everywhere (see :func:`scaled_error`) is defined here
 so that the reference check and the grid measure the same thing.
 """
+import threading
 import time
 from dataclasses import dataclass
 
@@ -28,8 +29,8 @@ import numpy as np
 
 from eomc.runtime.errors import SimulationError
 
-from .progress import stage
-from .simulate import finish, prepare, run_prepared, scipy_fun
+from .progress import follow_integration, stage
+from .simulate import _STAT_FIELDS, bind_call, finish, prepare, run_prepared, scipy_fun
 
 __all__ = ["Reference", "compute_reference", "scaled_error", "state_scale", "SCALE_FLOOR",
            "CHECK_METHODS", "REFERENCE_METHODS", "tied_tolerances", "MIN_WINDOW"]
@@ -109,6 +110,7 @@ class Reference:
     atol: float = None        # None: = tol
     check_atol: float = None
     agreement_t: np.ndarray = None   # the scaled error per output time (None if unchecked)
+    check_stopped_at: float = None   # t where the check was stopped, having parted (None: ran to the end)
 
     def __post_init__(self):
         self.atol = self.tol if self.atol is None else self.atol
@@ -129,8 +131,12 @@ class Reference:
                 f"({self.stats.get('accepted', '?')} steps, {self.wall_time:.3g} s)")
         if self.check_method == "none":
             return text + "; not checked"
-        return (text + f"; checked against {self.check_method} at {_tols(self.check_tol, self.check_atol)}: "
-                       f"agreement {self.agreement:.2e} (scaled error)")
+        text += (f"; checked against {self.check_method} at {_tols(self.check_tol, self.check_atol)}: "
+                 f"agreement {self.agreement:.2e} (scaled error)")
+        if self.check_stopped_at is not None:
+            text += (f" (its check stopped at t = {self.check_stopped_at:.4g}, past where the two part: "
+                     f"nothing after is judged)")
+        return text
 
 
 def _tols(rtol, atol):
@@ -158,6 +164,55 @@ def _c_run(model, x0, t_span, p, r, t_eval, method, tol, project, stiff_check=Fa
     x_out, stats, x_last = run_prepared(model, a)
     elapsed = time.perf_counter() - start
     return finish(model, a, x_out, stats, x_last, raise_on_failure=False), elapsed, a
+
+
+STOP_POLL_S = 0.05     # how often a check run's new rows are compared with the reference's
+ABORTED = 9             # EOMC_ABORTED: a run stopped through eomc_options.stop
+
+
+def scaled_rows(x, x_ref, scale):
+    """The scaled RMS error per output time (the rows of :func:`scaled_error`'s maximum)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return np.sqrt(np.mean(((np.asarray(x, float) - x_ref) / scale) ** 2, axis=1))
+
+
+def _c_check_until_apart(model, x0, t_span, p, r, t_eval, method, tol, project, atol, ref_x, scale,
+                         level):
+    """The check run, compared with the reference's rows as it writes its own, and stopped
+    (eomc_options.stop) once one differs from the reference's by more than ``level`` (scaled
+    error): errors are measured only before that row (Reference.horizon), so the rest of the
+    check would tell nothing (G1 falling onto its feet: its Radau check took 82 s to t = 10).
+    Returns (result, stopped): the rows written up to the stop, the parting row among them."""
+    a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=tol, atol=atol, t_eval=t_eval,
+                max_steps=10 ** 7, project=project)
+    flag = model.ffi.new("int *")
+    a["stop"] = flag
+    call, x_out, x_last, stats = bind_call(model, a)
+    times = a["t_eval"]
+    done = threading.Event()
+
+    def written():      # a step's rows are written before stats.t moves past them
+        return int(np.searchsorted(times, stats.t, side="left"))
+
+    def watch():
+        seen = 0
+        while not done.wait(STOP_POLL_S):
+            n = min(written(), len(ref_x))
+            if n > seen:
+                if np.any(~(scaled_rows(x_out[seen:n], ref_x[seen:n], scale) <= level)):
+                    flag[0] = 1
+                    return
+                seen = n
+    watcher = threading.Thread(target=watch, daemon=True, name="eomc-reference-check-watch")
+    watcher.start()
+    try:
+        follow_integration(lambda: (stats.t, stats.steps), a["t0"], a["t1"], call)
+    finally:
+        done.set()
+        watcher.join()
+    got = {f: getattr(stats, f) for f in _STAT_FIELDS}
+    res = finish(model, a, x_out, got, x_last, raise_on_failure=False)
+    return res, bool(flag[0]) and got["status"] == ABORTED
 
 
 def _input_function(a, ninput):
@@ -223,7 +278,7 @@ def _auto_check(model, res):
 
 
 def compute_reference(model, x0, t_span, t_eval, p=None, r=None, tol=1e-13, check="auto",
-                      project=False, method="auto", atol=None):
+                      project=False, method="auto", atol=None, stop_level=None):
     """Integrate the reference at rtol ``tol`` (and ``atol``, default ``tol``; the report ties
     both to its finest tolerance, :func:`tied_tolerances`) and check it a second way.
 
@@ -237,6 +292,10 @@ def compute_reference(model, x0, t_span, t_eval, p=None, r=None, tol=1e-13, chec
     same code, a weaker check) or "none".  Under "auto", a scipy check that fails (its DOP853
     has no stiffness test) gives way to "radau" (or "dop853-half"), and check_method says why.
     Raises SimulationError naming the reason if the reference itself cannot be computed.
+    ``stop_level``: a check run by our own code ("radau", "dop853-half") is stopped at the first
+    output time where it differs from the reference by more than this (scaled error): nothing
+    after it is judged (Reference.horizon at that level); agreement_t is NaN from where it
+    stopped, and ``check_stopped_at`` says where.
     """
     if check not in CHECK_METHODS:
         raise ValueError(f"unknown reference check {check!r}; valid: {', '.join(CHECK_METHODS)}")
@@ -251,6 +310,7 @@ def compute_reference(model, x0, t_span, t_eval, p=None, r=None, tol=1e-13, chec
     if chosen:
         check = _auto_check(model, res)
     check_tol, check_atol, agreement, other_x = float("nan"), None, float("nan"), None
+    check_stopped_at = None
     scipy_failed = None
     if check == "scipy":
         check_tol, check_atol = SCIPY_LOOSER * tol, SCIPY_LOOSER * atol
@@ -268,20 +328,29 @@ def compute_reference(model, x0, t_span, t_eval, p=None, r=None, tol=1e-13, chec
     if check in ("radau", "dop853-half"):
         how, check_tol = ("radau", max(tol, RADAU_FINEST)) if check == "radau" else ("dop853", tol / 2)
         check_atol = atol if check == "radau" else atol / 2
+        stopped = False
         with stage(f"its check, {how} at rtol={check_tol:g}"):      # named in the progress lines
-            other, _, _ = _c_run(model, x0, t_span, p, r, t_eval, how, check_tol, project, atol=check_atol)
-        if other.status:
+            if stop_level is None:
+                other, _, _ = _c_run(model, x0, t_span, p, r, t_eval, how, check_tol, project,
+                                     atol=check_atol)
+            else:
+                other, stopped = _c_check_until_apart(model, x0, t_span, p, r, t_eval, how, check_tol,
+                                                      project, check_atol, res.x, scale, stop_level)
+        if other.status and not stopped:
             raise SimulationError(f"the reference check failed: {other.message}")
         other_x = other.x
+        if stopped:
+            check_stopped_at = float(other.stats["t"])
     agreement_t = None
     if other_x is not None:
-        agreement = scaled_error(other_x, res.x, scale)
-        with np.errstate(over="ignore", invalid="ignore"):
-            agreement_t = np.sqrt(np.mean(((np.asarray(other_x, float) - res.x) / scale) ** 2, axis=1))
+        n = len(other_x)
+        agreement = scaled_error(other_x, res.x[:n], scale)
+        agreement_t = np.full(len(res.x), np.nan)
+        agreement_t[:n] = scaled_rows(other_x, res.x[:n], scale)
     return Reference(t=res.t, x=res.x, scale=scale, method=res.method, tol=tol, wall_time=elapsed,
                      stats=res.stats, outputs=res.outputs,
                      constraint_residual=res.constraint_residual,
                      check_method=(check if check != "scipy" else f"scipy {res.method}")
                      + (f" ({scipy_failed})" if scipy_failed else ""),
                      check_tol=check_tol, agreement=agreement, atol=atol, check_atol=check_atol,
-                     agreement_t=agreement_t)
+                     agreement_t=agreement_t, check_stopped_at=check_stopped_at)

@@ -24,6 +24,14 @@ Definitions used throughout:
   buffer allocation and output evaluation excluded): the median over
   ``repeats`` samples, each the mean of enough back-to-back calls to last
   >= 5 ms (at most 200 calls); the minimum sample is kept too (wall_time_min_s).
+  A run whose first call took ONCE_S of CPU time or more is timed by that call alone
+  (``samples`` 1): repeating it would multiply the report's time by ``repeats`` + 1 for a
+  figure whose CPU time varies by a few per cent (G1's report with no flags: 41 min, s33).
+* row budget -- each run is stopped once the thread running it has used ``row_budget``
+  seconds of CPU time (eomc_options.stop; wall time where the platform has no thread CPU
+  clock): the row is kept, marked cut (status 9, the message says after how long and at
+  which t), never recommended, and the method's tighter tolerances, which take longer, are
+  not run (their rows say so).  None: no budget.
 * CPU time -- the same samples' thread CPU time (``time.thread_time``): what the
   integration cost this thread, which another process's load does not inflate
   the way it inflates wall time; the diagram's time axis (cpu_time_s).
@@ -36,15 +44,18 @@ Definitions used throughout:
   "energy" (absolute when |E(0)| is below 1e-300).
 * constraint residual -- max over output times of the largest |constraint|.
 """
+import os
 import sys
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .reference import MIN_WINDOW, Reference, compute_reference, plan, scaled_error, tied_tolerances
-from .report_output import (COLUMNS, DEFAULT_TARGET, cost_key, cpu_ms, plot_report, recommendation,
-                            summary_markdown, table_text, write_csv)
+from .report_output import (COLUMNS, CUT_STATUS, DEFAULT_TARGET, ONCE_S, cost_key, cpu_ms, is_cut, plot_report,
+                            recommendation, summary_markdown, table_text, write_csv)
 from .diagnose import leaving_state
 from .progress import bar, integration, stage, ticker
 from .simulate import bind_call, finish, prepare, resolve_method, run_prepared
@@ -57,6 +68,8 @@ DEFAULT_TOLERANCES = tuple(10.0 ** -k for k in range(3, 11))
 TINY = 1e-300
 MIN_SAMPLE_S = 0.005     # one timing sample lasts at least this long ...
 MAX_INNER = 200          # ... or this many integrations
+ROW_BUDGET_S = 60.0      # default: a run is stopped after this much CPU time (see "row budget")
+BUDGET_POLL_S = 0.05     # how often the budget's watcher reads the running thread's CPU clock
 
 
 @dataclass
@@ -79,6 +92,13 @@ class WorkPrecisionReport:
     window: int = None
     window_level: float = None
     inconclusive: str = None      # why no error could be judged (the references part at once)
+    row_budget: float = None      # seconds of CPU time a run may take before it is cut (None: no limit)
+    budget_clock: str = "CPU"     # what the budget counts: "CPU" (thread CPU time) or "wall"
+    threads: int = 1              # methods run at once, each on a thread of its own
+
+    def cut_rows(self):
+        """The rows whose run was stopped at the row budget."""
+        return [r for r in self.rows if is_cut(r)]
 
     def ok_rows(self):
         return [r for r in self.rows if r["status"] == 0 and np.isfinite(r["error"])]
@@ -137,17 +157,26 @@ def _timed(model, a, repeats):
     """(SimulationResult, (median, min) wall time, median thread CPU time per integration)
     over `repeats` samples.
 
-    The result comes from simulate.run_prepared (the public path).  A timing
-    sample repeats the bare C call (:func:`_c_call`) until it lasts
-    MIN_SAMPLE_S (at most MAX_INNER calls) and divides by the count, so
-    sub-millisecond runs are not dominated by timer resolution and Python.
+    The result comes from simulate.run_prepared (the public path), run under the row's budget
+    (``a["_budget"]``, a :class:`_Budget`, if any).  A run that took ONCE_S of CPU time or more is
+    timed by that call alone (``res.samples`` 1).  Otherwise a timing sample repeats the bare C
+    call (:func:`_c_call`) until it lasts MIN_SAMPLE_S (at most MAX_INNER calls) and divides by
+    the count, so sub-millisecond runs are not dominated by timer resolution and Python.
     """
-    start = time.perf_counter()
-    x_out, stats, x_last = run_prepared(model, a)
-    first = time.perf_counter() - start
+    budget = a.get("_budget")
+    with budget if budget is not None else _NO_BUDGET:
+        start, start_cpu = time.perf_counter(), time.thread_time()
+        x_out, stats, x_last = run_prepared(model, a)
+        first, first_cpu = time.perf_counter() - start, time.thread_time() - start_cpu
     res = finish(model, a, x_out, stats, x_last, raise_on_failure=False)
+    res.samples = 1
     if res.status:
-        return res, (first, first), first
+        return res, (first, first), first_cpu
+    if budget is not None:
+        budget.flag[0] = 0      # a run that ended as its budget ran out: the timing calls go on
+    if first_cpu >= ONCE_S:
+        return res, (first, first), first_cpu
+    res.samples = max(1, int(repeats))
     call = _c_call(model, a)
     start = time.perf_counter()
     call()
@@ -163,17 +192,21 @@ def _timed(model, a, repeats):
     return res, (float(np.median(samples)), float(np.min(samples))), float(np.median(cpu))
 
 
-def _row(method, tol, dt, a, res, wall, ref, cpu=float("nan"), window=None):
+def _row(method, tol, dt, a, res, wall, ref, cpu=float("nan"), window=None, cut=False):
     wall, wall_min = wall
     s = res.stats
     ok = res.status == 0
+    # a cut run's rows up to where it was stopped are the same run's rows: its error is measured
+    # if they cover the output times errors are measured on (the CSV has it; never recommended)
+    covers = cut and window != 0 and res.x.shape[0] >= (ref.t.size if window is None else window)
     return dict(
         method=method, tolerance=tol, rtol=a["rtol"] if method != "rk4" else None,
         atol=a["atol"] if method != "rk4" else None, dt=dt, status=res.status,
-        error=(scaled_error(res.x[:window], ref.x[:window], ref.scale) if ok and window != 0
+        error=(scaled_error(res.x[:window], ref.x[:window], ref.scale) if (ok or covers) and window != 0
                else float("nan")),
         wall_time_s=wall if ok else float("nan"),
         wall_time_min_s=wall_min if ok else float("nan"), cpu_time_s=cpu if ok else float("nan"),
+        samples=getattr(res, "samples", None) if ok else None,
         steps=s["steps"], accepted=s["accepted"],
         rejected=s["rejected"], nfev=s["nfev"], njev=s["njev"], nlu=s["nlu"],
         energy_drift=energy_drift(res.outputs) if ok else None,
@@ -197,21 +230,91 @@ def _rk4_dt(t_span, dopri5_result):
     return (t_span[1] - t_span[0]) / max(1, int(dopri5_result.stats["accepted"]))
 
 
-def _one(model, method, tol, dt, common, repeats, ref, window=None):
-    """Measure one (method, tolerance); failures become rows, not exceptions."""
+def _thread_clock():
+    """(clock, what): a function giving the calling thread's CPU time that another thread can
+    read, and "CPU"; (time.monotonic, "wall") where the platform has no such clock."""
+    try:
+        clock_id = time.pthread_getcpuclockid(threading.get_ident())
+        time.clock_gettime(clock_id)
+    except (AttributeError, OSError):
+        return time.monotonic, "wall"
+    return (lambda: time.clock_gettime(clock_id)), "CPU"
+
+
+class _Budget:
+    """The row budget: stops the C run of the thread inside the ``with`` block (through
+    eomc_options.stop, read at each model evaluation) once that thread has used ``seconds``."""
+
+    def __init__(self, ffi, seconds, method=None):
+        self.flag = ffi.new("int *")
+        self.seconds, self.method = seconds, method
+        self.cut = False
+        self.kind = "CPU"
+
+    def __enter__(self):
+        clock, self.kind = _thread_clock()
+        start = clock()
+        self._done = threading.Event()
+
+        def watch():
+            while not self._done.wait(BUDGET_POLL_S):
+                if clock() - start >= self.seconds:
+                    self.cut = True
+                    self.flag[0] = 1
+                    return
+        self._watcher = threading.Thread(target=watch, daemon=True, name="eomc-report-budget")
+        self._watcher.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._done.set()
+        self._watcher.join()
+        return False
+
+
+class _NoBudget:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+_NO_BUDGET = _NoBudget()
+
+
+def _one(model, method, tol, dt, common, repeats, ref, window=None, budget=None, follow=False,
+         stops=None):
+    """Measure one (method, tolerance); failures become rows, not exceptions.  ``budget``:
+    seconds of CPU time its run may take (None: no limit); ``follow``: progress lines while it
+    runs (a log's, every 10 % of the span and 5 s); ``stops``: a set the run's stop flag is kept
+    in while it runs (the grid stops them all on Ctrl-C)."""
     kw = dict(dt=dt) if method == "rk4" else dict(rtol=tol, atol=tol)
     try:
         a = prepare(model, max_steps=10 ** 7, stiff_check=True, **common, method=method, **kw)
     except ValueError as exc:                 # e.g. radau without a Jacobian
         return _failed_row(method, tol, dt, f"not run: {exc}"), None
-    res, wall, cpu = _timed(model, a, repeats)
-    return _row(method, tol, dt, a, res, wall, ref, cpu, window), res
-
-
-def _dopri5_for_rk4(model, tol, common, ref, cache):
-    if tol not in cache:
-        _, cache[tol] = _one(model, "dopri5", tol, None, common, 1, ref)
-    return cache[tol]
+    guard = _Budget(model.ffi, budget, method) if budget else None
+    if guard is not None:
+        a["stop"], a["_budget"] = guard.flag, guard
+    if stops is not None and guard is not None:
+        stops.add(guard)
+    what = f"{method} {'dt=%.3g' % dt if method == 'rk4' else 'tol=%.0e' % tol}"
+    try:
+        with integration("eomc report", sys.stderr, follow), stage(what):
+            res, wall, cpu = _timed(model, a, repeats)
+    finally:
+        if stops is not None:
+            stops.discard(guard)
+    cut = guard is not None and guard.cut and res.status == CUT_STATUS
+    row = _row(method, tol, dt, a, res, wall, ref, cpu, window, cut=cut)
+    if cut:
+        t1 = common["t_span"][1]
+        row["cut_at"] = float(res.stats["t"])
+        row["message"] = (f"cut: stopped after {budget:g} s of {guard.kind} time (the report's row "
+                          f"budget, --row-budget) at t = {res.stats['t']:.4g} of {t1:g}, "
+                          f"{res.stats['steps']} steps")
+    return row, res
 
 
 def _progress(enabled, row, live):
@@ -224,6 +327,8 @@ def _progress(enabled, row, live):
         # the table's figure, named: the wall time printed here read as a second, larger number for
         # the same run under load (first hour s27: a1's bdf at 1e-3, 32.2 ms here, 16.1 in the table)
         text = f"error {row['error']:.2e}  {cpu_ms(row):.3g} ms CPU  {row['steps']} steps"
+    elif is_cut(row) or str(row["message"]).startswith("not run"):
+        text = row["message"]
     else:
         text = f"failed: {row['message']}"
     line = f"eomc report: {row['method']:<7} {what:<12} {text}"
@@ -240,7 +345,7 @@ def _setting_text(row):
 def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
                    tolerances=DEFAULT_TOLERANCES, repeats=3, reference=None, progress=True,
                    n_points=201, reference_tol=None, reference_check="auto", reference_method="auto",
-                   project=False, target=DEFAULT_TARGET):
+                   project=False, target=DEFAULT_TARGET, row_budget=ROW_BUDGET_S, threads=None):
     """Run every method at every tolerance and measure error, time, drift and residual.
 
     The module docstring defines error, tolerance (and RK4's dt), wall time and
@@ -257,12 +362,19 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
     conditioning, not a method -- ``report.window`` says until when.  If they part within
     MIN_WINDOW output times nothing can be judged: ``report.inconclusive`` says why.
     Failed runs (stiffness detected, step limits) are kept as rows with their
-    status and message.  Bad arguments raise ValueError before anything runs.
+    status and message.  ``row_budget``: seconds of CPU time a run may take before it is cut
+    (module docstring, "row budget"; None or 0: no limit).  ``threads``: methods run at once
+    (None: one per core this process may use).  Bad arguments raise ValueError before anything
+    runs.
     """
     methods = tuple(dict.fromkeys(resolve_method(m) for m in methods))
     tolerances = tuple(sorted({float(t) for t in tolerances}, reverse=True))
     if not methods or not tolerances or min(tolerances) <= 0:
         raise ValueError("work_precision needs at least one method and tolerances > 0")
+    if row_budget is not None and not row_budget >= 0:
+        raise ValueError(f"row_budget must be >= 0 seconds (0 or None: no limit); got {row_budget}")
+    if threads is not None and int(threads) < 1:
+        raise ValueError(f"threads must be >= 1; got {threads}")
     if int(n_points) < 2:
         raise ValueError(f"n_points must be >= 2 (output times the error is measured at); "
                          f"got {n_points}")
@@ -280,9 +392,10 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
         # minutes without a line); on a terminal, the ticker's live line
         with ticker("eomc report: reference", sys.stderr, progress) as live, \
                 integration("eomc report", sys.stderr, progress, ticker=live), stage("reference"):
+            # its check stops where the two part by more than the errors are measured to (report.window)
             reference = compute_reference(model, x0, (t0, t1), t_eval, p=p, r=r, tol=rtol, atol=atol,
                                           check=reference_check, project=project,
-                                          method=reference_method)
+                                          method=reference_method, stop_level=AGREE * float(target))
         if progress:   # what ran (auto resolves, Radau's rtol is clipped): as report.md records it
             print(f"eomc report: {reference.describe()}", file=sys.stderr, flush=True)
     if reference.x.shape != (t_eval.size, model.nx):
@@ -304,6 +417,9 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
                                f"and no method can be told from another; give a start that moves "
                                f"(--x0 / x0=, e.g. {leaving_state(model, reference.x[0], p, t0)}=0.1)")
     report.skipped = _unrunnable(model, methods, common)
+    report.row_budget = float(row_budget) if row_budget else None
+    report.budget_clock = _thread_clock()[1]
+    report.threads = int(threads) if threads else default_threads(len(methods))
     report.cost_weights, report.cost_from_op_counts = cost_weights(model)
     _run_grid(report, model, common, repeats, progress)
     for row in report.rows:
@@ -344,37 +460,118 @@ def run_cost(row, weights):
     return float(row["nfev"] + w_jac * (row["njev"] or 0) + w_lu * (row["nlu"] or 0))
 
 
-def _run_grid(report, model, common, repeats, progress):
-    """Fill report.rows: every tolerance, every runnable method (rk4 last: it needs DOPRI5)."""
-    dopri5_runs = {}
-    runnable = [m for m in report.methods if m not in report.skipped]
-    live = bar(len(report.tolerances) * len(runnable), "eomc report", sys.stderr, progress)
+def default_threads(n_methods):
+    """Methods run at once by default: one per core this process may use, at most one per method."""
     try:
-        _grid_rows(report, model, common, repeats, progress, live, dopri5_runs)
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count() or 1
+    return max(1, min(cores, n_methods))
+
+
+def _run_grid(report, model, common, repeats, progress):
+    """Fill report.rows: every runnable method at every tolerance, loosest first.
+
+    Each method's sweep runs on a thread of its own, ``report.threads`` at once (the C calls
+    release the GIL; CPU times are each thread's own, so a row's figure does not count another's
+    work).  rk4 goes last: its dt at a tolerance is DOPRI5's step count there.  A run cut at the
+    row budget ends its method's sweep: tighter tolerances take longer, and their rows say so."""
+    runnable = sorted((m for m in report.methods if m not in report.skipped), key=lambda m: m == "rk4")
+    live = bar(len(report.tolerances) * len(runnable), "eomc report", sys.stderr, progress)
+    grid = _Grid(report, model, common, repeats, progress, live, runnable)
+    threads = max(1, min(int(report.threads or 1), len(runnable) or 1))
+    try:
+        if threads == 1:
+            for method in runnable:
+                grid.sweep(method)
+        else:
+            pool = ThreadPoolExecutor(threads, thread_name_prefix="eomc-report")
+            try:
+                for job in [pool.submit(grid.sweep, m) for m in runnable]:
+                    job.result()
+            except BaseException:
+                grid.stop_all()     # Ctrl-C, SIGTERM, an error: the other runs stop at once
+                raise
+            finally:
+                pool.shutdown(wait=True, cancel_futures=True)
     finally:
         live.close()
     report.rows.sort(key=lambda r: (report.methods.index(r["method"]), -r["tolerance"]))
 
 
-def _grid_rows(report, model, common, repeats, progress, live, dopri5_runs):
-    for tol in report.tolerances:
-        for method in sorted(report.methods, key=lambda m: m == "rk4"):
-            if method in report.skipped:
-                continue
-            dt = None
-            if method == "rk4":
-                done = _dopri5_for_rk4(model, tol, common, report.reference, dopri5_runs)
-                dt = _rk4_dt(common["t_span"], done)
-            if method == "rk4" and dt is None:
-                row = _failed_row(method, tol, None, "not run: DOPRI5 failed at this tolerance, "
-                                  "so there is no step count to match")
+class _Grid:
+    """The grid's shared state: the rows, DOPRI5's runs rk4 takes its dt from, the runs' stop
+    flags, a lock for the rows and the progress lines."""
+
+    def __init__(self, report, model, common, repeats, progress, live, runnable):
+        self.report, self.model, self.common, self.repeats = report, model, common, repeats
+        self.progress, self.live = progress, live
+        self.lock = threading.Lock()
+        self.stops = set()
+        self.stopped = False
+        self.dopri5 = {}
+        self.dopri5_done = {tol: threading.Event() for tol in report.tolerances} \
+            if "dopri5" in runnable else None
+
+    def stop_all(self):
+        self.stopped = True
+        for guard in list(self.stops):
+            guard.flag[0] = 1
+
+    def _measure(self, method, tol, dt, repeats=None, window=None):
+        report = self.report
+        return _one(self.model, method, tol, dt, self.common,
+                    self.repeats if repeats is None else repeats, report.reference,
+                    window, budget=report.row_budget,
+                    follow=self.progress and not self.live.active, stops=self.stops)
+
+    def _dopri5_run(self, tol):
+        """DOPRI5's run at ``tol`` for rk4's dt: the grid's own row, or a run of its own."""
+        if self.dopri5_done is not None:
+            self.dopri5_done[tol].wait()
+            return self.dopri5.get(tol)
+        if tol not in self.dopri5:
+            _, self.dopri5[tol] = self._measure("dopri5", tol, None, repeats=1)
+        return self.dopri5[tol]
+
+    def sweep(self, method):
+        try:
+            self._sweep(method)
+        finally:
+            if method == "dopri5" and self.dopri5_done is not None:
+                for done in self.dopri5_done.values():     # rk4 never waits for a row not run
+                    done.set()
+
+    def _sweep(self, method):
+        report = self.report
+        window = 0 if report.inconclusive else report.window
+        cut = None
+        for tol in report.tolerances:
+            res = None
+            if self.stopped:
+                return
+            if cut is not None:
+                row = _failed_row(method, tol, None, f"not run: {method} at {_setting_text(cut)} was "
+                                  f"cut at the row budget, and tighter tolerances take longer")
+            elif method == "rk4":
+                dt = _rk4_dt(self.common["t_span"], self._dopri5_run(tol))
+                if dt is None:
+                    row = _failed_row(method, tol, None, "not run: DOPRI5 did not finish at this "
+                                      "tolerance (failed, cut or not run), so there is no step "
+                                      "count to match")
+                else:
+                    row, res = self._measure(method, tol, dt, window=window)
             else:
-                row, res = _one(model, method, tol, dt, common, repeats, report.reference,
-                                0 if report.inconclusive else report.window)
-                if method == "dopri5":
-                    dopri5_runs[tol] = res
-            report.rows.append(row)
-            _progress(progress, row, live)
+                row, res = self._measure(method, tol, None, window=window)
+            if method == "dopri5":
+                self.dopri5[tol] = res
+                if self.dopri5_done is not None:
+                    self.dopri5_done[tol].set()
+            if is_cut(row):
+                cut = row
+            with self.lock:
+                report.rows.append(row)
+                _progress(self.progress, row, self.live)
 
 
 def _unrunnable(model, methods, common):

@@ -15,13 +15,28 @@ from .files import atomic_path
 # writers that use them, so that this module does not import report.py back.
 DEFAULT_TARGET = 1e-6
 COLUMNS = ("method", "tolerance", "rtol", "atol", "dt", "status", "error", "wall_time_s",
-           "wall_time_min_s", "cpu_time_s",
+           "wall_time_min_s", "cpu_time_s", "samples",
            "steps", "accepted", "rejected", "nfev", "njev", "nlu", "cost", "energy_drift",
            "constraint_residual", "message")
 
-__all__ = ["write_csv", "table_text", "plot_report", "summary_markdown", "recommendation", "usage"]
+__all__ = ["write_csv", "table_text", "plot_report", "summary_markdown", "recommendation", "usage",
+           "is_cut", "CUT_STATUS"]
+
+CUT_STATUS = 9           # EOMC_ABORTED: what a run stopped through eomc_options.stop ends with
+
+
+def is_cut(row):
+    """Whether a row's run was stopped at the report's row budget (runtime/report.py)."""
+    return row["status"] == CUT_STATUS and str(row.get("message") or "").startswith("cut:")
+
+
+def _after_cut(row):
+    """A row not run because a looser tolerance of its method was cut at the row budget."""
+    message = str(row.get("message") or "")
+    return message.startswith("not run") and "cut at the row budget" in message
 
 EXPLICIT = ("rk4", "dopri5", "dop853")
+ONCE_S = 0.5             # a first call this long (thread CPU s) is the row's only timing sample
 MANY_REJECTIONS = 0.25    # rejected / steps above this: reported (a symptom only with others)
 FLAT_STEPS = 1.5         # explicit steps growing less than this over >= 3 decades: stability-limited
 CONSERVED = 1e-8          # reference energy drift below this: the model conserves energy
@@ -64,7 +79,7 @@ def _table_rows(report):
     body = []
     for r in report.rows:
         ms = r.get("cpu_time_s", r["wall_time_s"]) * 1e3 if r["status"] == 0 else None
-        cells = [r["method"], _setting(r), _fmt(r["error"]) if r["status"] == 0 else "FAILED",
+        cells = [r["method"], _setting(r), _fmt(r["error"]) if r["status"] == 0 else _not_ok(r),
                  _fmt(ms, ".3g"), _fmt(r["steps"], "d"), _fmt(r["rejected"], "d"), _fmt(r["nfev"], "d"),
                  _fmt(r.get("cost") if r["status"] == 0 else None, ".0f")]
         if report.has_energy:
@@ -73,6 +88,13 @@ def _table_rows(report):
             cells.append(_fmt(r["constraint_residual"]))
         body.append(cells)
     return head, body
+
+
+def _not_ok(row):
+    """The error cell of a row without one: cut (where), not run, or FAILED."""
+    if is_cut(row):
+        return f"cut t={row['cut_at']:.3g}" if row.get("cut_at") is not None else "cut"
+    return "not run" if str(row.get("message") or "").startswith("not run") else "FAILED"
 
 
 def table_text(report):
@@ -237,10 +259,14 @@ def _reference_notes(report, target):
                      f"~{10 * ref.agreement:.0e} are not resolved by this reference.")
     window = getattr(report, "window", None)
     if window is not None and 0 < window < ref.t.size and not getattr(report, "inconclusive", None):
-        apart = ref.agreement_t
+        apart = ref.agreement_t[window:]
+        stopped = getattr(ref, "check_stopped_at", None)
+        differ = (f"there they differ by {float(np.nanmax(apart)):.1e}, and the check was stopped "
+                  f"(at t = {stopped:.4g})" if stopped is not None else
+                  f"after it they differ by up to {float(np.nanmax(apart)):.1e}")
         notes.append(f"**Errors are measured on t in [{ref.t[0]:g}, {ref.t[window]:.4g}]**, where the "
                      f"reference's two computations agree to {report.window_level:.1e} (a tenth of the "
-                     f"target); after it they differ by up to {float(np.max(apart[window:])):.1e}: the "
+                     f"target); {differ}: the "
                      f"motion amplifies their differences, so there the problem's conditioning, not a "
                      f"method, limits the comparison (not judged).")
     elif ref.check_method != "none" and not (ref.agreement <= 0.1 * target):
@@ -264,12 +290,14 @@ def _run_notes(report):
     """Methods that could not run on this model, runs that failed (other than stiffness) and
     runs that missed their tolerance by orders of magnitude (failed too: issue 29)."""
     notes = [f"{m} not run: {why}" for m, why in report.skipped.items()]
+    notes += _cut_notes(report)
     # one line per method and reason, its settings listed (first hour s23: gymnasium's hopper
     # had seven lines of "rk4 at 1e-04 failed: not run: DOPRI5 failed ...", one per tolerance,
     # which pushed the notes after them past the ten kept)
     same = {}
     for r in report.rows:
-        if r["status"] != 0 and not (r["method"] in EXPLICIT and r["status"] in (6, 7)):
+        if r["status"] != 0 and not (r["method"] in EXPLICIT and r["status"] in (6, 7)) \
+                and not is_cut(r) and not _after_cut(r):
             same.setdefault((r["method"], _short(report, r["message"])), []).append(_setting(r))
     for (method, why), settings in same.items():
         notes.append(f"{method} at {', '.join(settings)} failed: {why}")
@@ -278,11 +306,33 @@ def _run_notes(report):
     if missed:
         notes.append("FAILED, tolerance missed by orders of magnitude (error > 1e5 x tolerance): "
                      + "; ".join(f"{r['method']} at {_setting(r)} (error {r['error']:.2g})" for r in missed[:6]))
-    stopped = [r for r in report.rows if r["status"] != 0]
+    stopped = [r for r in report.rows if r["status"] != 0 and not is_cut(r) and not _after_cut(r)]
     if stopped:
         notes.append(f"FAILED, stopped: {len(stopped)} of {len(report.rows)} runs "
                      f"({', '.join(sorted({r['method'] for r in stopped}))}); they are never recommended")
     return notes[:10]
+
+
+def _cut_notes(report):
+    """The runs stopped at the row budget, where, and what was not run after them."""
+    cut = [r for r in report.rows if is_cut(r)]
+    if not cut:
+        return []
+    t1 = report.t_span[1]
+    budget = getattr(report, "row_budget", None)
+    clock = getattr(report, "budget_clock", "CPU")
+    parts = []
+    for r in cut:
+        skipped = [_setting(s) for s in report.rows if s["method"] == r["method"] and _after_cut(s)]
+        error = (f", error {r['error']:.2e} on the judged times it covered" if r["error"] is not None
+                 and np.isfinite(r["error"]) else "")
+        parts.append(f"{r['method']} at {_setting(r)} (stopped at t = {r.get('cut_at', float('nan')):.4g} "
+                     f"of {t1:g}, {r['steps']} steps{error})"
+                     + (f", so {r['method']} at {', '.join(skipped)} was not run" if skipped else ""))
+    limit = f"{budget:g} s of {clock} time per run" if budget else "the row budget"
+    return [f"CUT at the row budget ({limit}; `--row-budget` sets it, 0 for none): "
+            + "; ".join(parts) + ". A cut run is never recommended; its tighter tolerances take "
+            f"longer still."]
 
 
 def _energy_notes(report):
@@ -374,7 +424,8 @@ def summary_markdown(report, target):
              f"{-math.log10(target):.0f} correct digits of every state, relative to its size, "
              f"at every output time. Adaptive methods run with rtol = atol = tolerance; RK4's "
              f"step is the span over DOPRI5's accepted steps at that tolerance. Wall time is "
-             f"the median of the C integration call.", "",
+             f"the median of the C integration call (a run of {ONCE_S:g} s of CPU time or more: "
+             f"its one call).", "",
              recommendation(report, target), ""]
     notes = (_reference_notes(report, target) + _run_notes(report) + _energy_notes(report)
              + _constraint_notes(report) + _stiffness_notes(report))

@@ -26,7 +26,7 @@ CONTACT_METHODS = ("bdf", "radau")
 
 
 def configure(parser):
-    from eomc.runtime.report import DEFAULT_METHODS, DEFAULT_TARGET, DEFAULT_TOLERANCES
+    from eomc.runtime.report import DEFAULT_METHODS, DEFAULT_TARGET, DEFAULT_TOLERANCES, ROW_BUDGET_S
     cli_common.add_model_arguments(parser)
     cli_common.add_formulation_argument(parser)
     parser.add_argument("--t-final", type=float, default=10.0, help="end of the time span")
@@ -46,6 +46,13 @@ def configure(parser):
     parser.add_argument("--reference-tol", type=float, default=None,
                         help="rtol = atol of the reference (default: tied to the finest --tolerances, rtol "
                              "1000x and atol 10x tighter, as eomc check's references)")
+    parser.add_argument("--row-budget", type=float, default=ROW_BUDGET_S, metavar="SECONDS",
+                        help=f"CPU time a run may take (default {ROW_BUDGET_S:g} s): a run that takes longer is "
+                             f"stopped and shown as cut (where, and after how long), and its method's tighter "
+                             f"tolerances are not run; 0: no limit")
+    parser.add_argument("--threads", type=int, default=None,
+                        help="methods run at once, each on a thread of its own (default: one per core "
+                             "this process may use)")
     parser.add_argument("--reference-check", default="auto",
                         choices=("auto", "scipy", "radau", "dop853-half", "none"),
                         help="second computation the reference is checked against")
@@ -57,6 +64,9 @@ def _command(args, methods):
              "--methods " + " ".join(methods),
              "--tolerances " + " ".join(f"{t:g}" for t in args.tolerances),
              f"--target {args.target:g}", f"--repeats {args.repeats}"]
+    from eomc.runtime.report import ROW_BUDGET_S
+    if args.row_budget != ROW_BUDGET_S:
+        parts.append(f"--row-budget {args.row_budget:g}")
     if args.t0:
         parts.insert(2, f"--t0 {args.t0:g}")
     if args.x0:
@@ -102,7 +112,8 @@ def run(args):
                                 tolerances=args.tolerances, repeats=args.repeats,
                                 progress=not args.quiet, n_points=args.points,
                                 reference_tol=args.reference_tol,
-                                reference_check=args.reference_check, target=args.target)
+                                reference_check=args.reference_check, target=args.target,
+                                row_budget=args.row_budget, threads=args.threads)
     except SimulationError as exc:
         if "the reference solution failed" not in str(exc):
             raise

@@ -485,3 +485,129 @@ def test_cli_report_says_no_initial_state_only_of_a_model_without_one(osc, monke
     monkeypatch.setattr(osc, "initial_state", None, raising=False)
     main(argv + ["--x0", f"{osc.state_names[0]}=0"])
     assert note not in capsys.readouterr().err
+
+
+# ---- a bounded report: the row budget, long runs timed once, the reference's check stopped ----
+
+def test_a_run_past_its_budget_is_cut_and_the_report_still_ends(osc, monkeypatch, tmp_path, capsys):
+    """The row budget (s34, reportg1: G1's report with no flags ran 41 min): a run whose budget
+    is spent is stopped, kept as a cut row saying where, never recommended, its method's tighter
+    tolerances not run; the other methods' rows and the outputs are as without it.  The budget
+    is forced spent for dop853's runs (its flag set as the run starts: the C loop stops at its
+    first model evaluation), so which rows are cut does not depend on the machine's speed."""
+    import eomc.cli.common as cli_common
+    import eomc.runtime.report as report_module
+    from eomc.cli import main
+    enter = report_module._Budget.__enter__
+
+    def spent(self):
+        enter(self)
+        if self.method == "dop853":
+            self.cut, self.flag[0] = True, 1
+        return self
+    monkeypatch.setattr(report_module._Budget, "__enter__", spent)
+    monkeypatch.setattr(cli_common, "load_model", lambda *a, **k: osc)
+    out = tmp_path / "cut"
+    assert main(["report", "oscillator", "--x0", "q=1", "--t-final", "5", "--methods", "dop853,radau",
+                 "--tolerances", "1e-4", "1e-6", "1e-8", "--repeats", "1", "--row-budget", "7",
+                 "-o", str(out)]) == 0
+    captured = capsys.readouterr()
+    names, rows = read_csv(out / "report.csv")
+    assert tuple(names) == COLUMNS and len(rows) == 6
+    dop = [r for r in rows if r["method"] == "dop853"]
+    assert dop[0]["status"] == "9" and dop[0]["message"].startswith("cut: stopped after 7 s of ")
+    assert re.search(r"at t = 0 of 5, \d+ steps$", dop[0]["message"]), dop[0]["message"]
+    for r in dop[1:]:
+        assert r["status"] == "-1" and "not run: dop853 at tol=1e-04 was cut at the row budget" in r["message"]
+    radau = [r for r in rows if r["method"] == "radau"]
+    assert all(r["status"] == "0" and float(r["error"]) > 0 for r in radau)
+    md = (out / "report.md").read_text()
+    assert "CUT at the row budget (7 s of" in md and "dop853 at 1e-06, 1e-08 was not run" in md
+    assert 'method="radau"' in md.split("\n\n")[2]           # the recommendation: a run that finished
+    assert "FAILED" not in md and "cut t=0" in captured.out and "not run" in captured.out
+    assert "--row-budget 7" in md
+    assert (out / "report.png").stat().st_size > 10_000
+    assert re.search(r"eomc report: dop853 +tol=1e-04 +cut: stopped after 7 s", captured.err)
+
+
+def test_the_budget_stops_a_long_run_by_its_cpu_time(osc):
+    """The watcher itself: a run of ~1e6 DOP853 steps (seconds) under a 0.05 s budget is stopped
+    part of the way, its rows up to there kept; with no budget the same call runs to the end."""
+    import eomc.runtime.report as report_module
+    t1 = 1e5
+    common = dict(x0=[1.0, 0.0], t_span=(0.0, t1), p=None, r=None, t_eval=np.array([0.0, t1]),
+                  project=False)
+    ref = compute_reference(osc, [1.0, 0.0], (0.0, 1.0), np.array([0.0, 1.0]), check="none")
+    row, res = report_module._one(osc, "dop853", 1e-12, None, common, 1, ref, budget=0.05)
+    assert report_module.is_cut(row) and row["status"] == 9 and 0 < row["cut_at"] < t1
+    assert res.t.size == 1 and np.isnan(row["error"]) and np.isnan(row["cpu_time_s"])
+    assert f"at t = {row['cut_at']:.4g} of {t1:g}" in row["message"]
+    short = dict(common, t_span=(0.0, 10.0), t_eval=np.array([0.0, 10.0]))
+    done, _ = report_module._one(osc, "dop853", 1e-12, None, short, 1, ref, budget=None)
+    assert done["status"] == 0 and not report_module.is_cut(done)
+
+
+def test_a_long_run_is_timed_by_its_one_call(osc, monkeypatch):
+    """A run whose first call took ONCE_S of CPU time is not called again for timing samples
+    (5 calls a row before); a short one is (repeats samples)."""
+    import eomc.runtime.report as report_module
+    import eomc.runtime.simulate as simulate_module
+    calls = []
+    bind = simulate_module.bind_call
+
+    def counting(model, a, out=None):
+        call, *rest = bind(model, a, out)
+
+        def counted():
+            calls.append(1)
+            return call()
+        return (counted, *rest)
+    monkeypatch.setattr(report_module, "bind_call", counting)
+    monkeypatch.setattr(simulate_module, "bind_call", counting)
+    rep = work_precision(osc, [1.0, 0.0], (0.0, 2.0), methods=("dop853",), tolerances=(1e-6,),
+                         repeats=3, progress=False, n_points=11, row_budget=None)
+    short = len(calls)
+    assert rep.rows[0]["samples"] == 3 and short >= 1 + 1 + 3
+    monkeypatch.setattr(report_module, "ONCE_S", 0.0)
+    calls.clear()
+    rep = work_precision(osc, [1.0, 0.0], (0.0, 2.0), methods=("dop853",), tolerances=(1e-6,),
+                         repeats=3, progress=False, n_points=11, row_budget=None,
+                         reference=rep.reference)
+    assert rep.rows[0]["samples"] == 1 and len(calls) == 1 and rep.rows[0]["status"] == 0
+    assert rep.rows[0]["cpu_time_s"] > 0
+
+
+def test_rows_on_threads_are_the_rows_on_one(osc):
+    """Methods on threads of their own give the same rows (counts, errors) as one after the
+    other, in the same order; rk4 still takes DOPRI5's step count."""
+    kw = dict(methods=("rk4", "dopri5", "dop853", "radau"), tolerances=(1e-4, 1e-7), repeats=1,
+              progress=False, n_points=51)
+    one = work_precision(osc, [1.0, 0.0], (0.0, 5.0), threads=1, **kw)
+    four = work_precision(osc, [1.0, 0.0], (0.0, 5.0), threads=4, reference=one.reference, **kw)
+    assert one.threads == 1 and four.threads == 4
+    keys = ("method", "tolerance", "dt", "status", "error", "steps", "nfev", "njev", "nlu")
+    assert [[r[k] for k in keys] for r in one.rows] == [[r[k] for k in keys] for r in four.rows]
+    with pytest.raises(ValueError, match="threads must be >= 1"):
+        work_precision(osc, [1.0, 0.0], (0.0, 5.0), threads=0, **kw)
+    with pytest.raises(ValueError, match="row_budget must be >= 0"):
+        work_precision(osc, [1.0, 0.0], (0.0, 5.0), row_budget=-1, **kw)
+
+
+def test_the_reference_check_stops_where_the_two_part(osc):
+    """A check by our own code is stopped at the first output time where it differs from the
+    reference by more than the level errors are measured to: where they part and everything
+    before it is what the check run to the end gives (the same rows), nothing after is judged."""
+    t1 = 2e4
+    t = np.linspace(0.0, t1, 401)
+    full = compute_reference(osc, [1.0, 0.0], (0.0, t1), t, tol=1e-10, check="dop853-half")
+    level = float(full.agreement_t[200])
+    h = full.horizon(level)
+    assert 10 < h < t.size - 1 and full.check_stopped_at is None
+    cut = compute_reference(osc, [1.0, 0.0], (0.0, t1), t, tol=1e-10, check="dop853-half",
+                            stop_level=level)
+    assert cut.horizon(level) == h
+    np.testing.assert_array_equal(cut.agreement_t[:h + 1], full.agreement_t[:h + 1])
+    np.testing.assert_array_equal(cut.x, full.x)
+    if cut.check_stopped_at is not None:      # stopped by a poll (every 50 ms): the run was long enough
+        assert t[h] <= cut.check_stopped_at < t1 and np.isnan(cut.agreement_t[-1])
+        assert "its check stopped at t = " in cut.describe()
