@@ -30,7 +30,7 @@ sys.path.insert(0, str(HERE))
 from common import environment_header, write_results  # noqa: E402
 from contact_defaults import robots  # noqa: E402
 
-ROW = re.compile(r"^eomc report: (\w+)\s+(dt=\S+|tol=\S+)\s+(.*)$")
+ROW = re.compile(r"^eomc report: (\w+)\s+(dt=[^\s:]+|tol=[^\s:]+)\s+(.*)$")
 
 
 def models():
@@ -80,10 +80,14 @@ def report(eomc, spec, cache, work, cpus, extra):
         if "computing the reference" in text:
             stages["build"] = stages.get("build", 0.0) + t - last_t
             last_t, where = t, "reference"
+        elif where == "reference" and text.startswith("eomc report: reference: ") and (
+                "checked against" in text or "not checked" in text):
+            stages["reference"] = stages.get("reference", 0.0) + t - last_t
+            last_t, where = t, "rows"
         elif m:
-            key = f"reference" if where == "reference" else m.group(1)
-            stages[key] = stages.get(key, 0.0) + t - last_t
-            last_t, where, rows = t, "rows", rows + 1
+            # rows on threads: each gap between row lines goes to the row that ended it
+            stages[m.group(1)] = stages.get(m.group(1), 0.0) + t - last_t
+            last_t, rows = t, rows + 1
     stages["rest"] = wall - last_t
     tail = [ln for ln in (work / "out.txt").read_text().splitlines() if ln.strip()]
     return rc, wall, cpu, load0, loadavg(), stages, rows, (tail[-3] if len(tail) >= 3 else "")

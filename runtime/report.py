@@ -31,7 +31,9 @@ Definitions used throughout:
   seconds of CPU time (eomc_options.stop; wall time where the platform has no thread CPU
   clock): the row is kept, marked cut (status 9, the message says after how long and at
   which t), never recommended, and the method's tighter tolerances, which take longer, are
-  not run (their rows say so).  None: no budget.
+  not run (their rows say so).  So are they once the method's runs so far have used
+  SWEEP_BUDGETS row budgets together: a method's sweep costs at most (SWEEP_BUDGETS + 1) x
+  ``row_budget`` of CPU time.  None: no budget.
 * CPU time -- the same samples' thread CPU time (``time.thread_time``): what the
   integration cost this thread, which another process's load does not inflate
   the way it inflates wall time; the diagram's time axis (cpu_time_s).
@@ -54,8 +56,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .reference import MIN_WINDOW, Reference, compute_reference, plan, scaled_error, tied_tolerances
-from .report_output import (COLUMNS, CUT_STATUS, DEFAULT_TARGET, ONCE_S, cost_key, cpu_ms, is_cut, plot_report,
-                            recommendation, summary_markdown, table_text, write_csv)
+from .report_output import (COLUMNS, CUT_STATUS, DEFAULT_TARGET, ONCE_S, SWEEP_BUDGETS, cost_key, cpu_ms,
+                            is_cut, plot_report, recommendation, summary_markdown, table_text, write_csv)
 from .diagnose import leaving_state
 from .progress import bar, integration, stage, ticker
 from .simulate import bind_call, finish, prepare, resolve_method, run_prepared
@@ -169,7 +171,7 @@ def _timed(model, a, repeats):
         x_out, stats, x_last = run_prepared(model, a)
         first, first_cpu = time.perf_counter() - start, time.thread_time() - start_cpu
     res = finish(model, a, x_out, stats, x_last, raise_on_failure=False)
-    res.samples = 1
+    res.samples, res.first_cpu = 1, first_cpu
     if res.status:
         return res, (first, first), first_cpu
     if budget is not None:
@@ -545,7 +547,8 @@ class _Grid:
     def _sweep(self, method):
         report = self.report
         window = 0 if report.inconclusive else report.window
-        cut = None
+        cut, spent = None, 0.0
+        budget = report.row_budget
         for tol in report.tolerances:
             res = None
             if self.stopped:
@@ -553,6 +556,10 @@ class _Grid:
             if cut is not None:
                 row = _failed_row(method, tol, None, f"not run: {method} at {_setting_text(cut)} was "
                                   f"cut at the row budget, and tighter tolerances take longer")
+            elif budget and spent >= SWEEP_BUDGETS * budget:
+                row = _failed_row(method, tol, None, f"not run: {method}'s runs at looser tolerances took "
+                                  f"{spent:.0f} s of CPU time together, {SWEEP_BUDGETS} x the row budget, "
+                                  f"and tighter tolerances take longer")
             elif method == "rk4":
                 dt = _rk4_dt(self.common["t_span"], self._dopri5_run(tol))
                 if dt is None:
@@ -569,6 +576,8 @@ class _Grid:
                     self.dopri5_done[tol].set()
             if is_cut(row):
                 cut = row
+            first = getattr(res, "first_cpu", None)
+            spent += first if first is not None and np.isfinite(first) else 0.0
             with self.lock:
                 report.rows.append(row)
                 _progress(self.progress, row, self.live)

@@ -33,10 +33,12 @@ def is_cut(row):
 def _after_cut(row):
     """A row not run because a looser tolerance of its method was cut at the row budget."""
     message = str(row.get("message") or "")
-    return message.startswith("not run") and "cut at the row budget" in message
+    return message.startswith("not run") and ("cut at the row budget" in message
+                                               or "x the row budget" in message)
 
 EXPLICIT = ("rk4", "dopri5", "dop853")
-ONCE_S = 0.5             # a first call this long (thread CPU s) is the row's only timing sample
+ONCE_S = 0.2             # a first call this long (thread CPU s) is the row's only timing sample
+SWEEP_BUDGETS = 3        # row budgets a method's runs may use together (runtime/report.py)
 MANY_REJECTIONS = 0.25    # rejected / steps above this: reported (a symptom only with others)
 FLAT_STEPS = 1.5         # explicit steps growing less than this over >= 3 decades: stability-limited
 CONSERVED = 1e-8          # reference energy drift below this: the model conserves energy
@@ -316,8 +318,17 @@ def _run_notes(report):
 def _cut_notes(report):
     """The runs stopped at the row budget, where, and what was not run after them."""
     cut = [r for r in report.rows if is_cut(r)]
-    if not cut:
+    swept = {}
+    for r in report.rows:
+        if _after_cut(r) and "x the row budget" in r["message"]:
+            swept.setdefault(r["method"], []).append(_setting(r))
+    if not cut and not swept:
         return []
+    notes = [f"{m} at {', '.join(settings)} not run: its runs at looser tolerances used "
+             f"{SWEEP_BUDGETS} row budgets of CPU time together (`--row-budget`)"
+             for m, settings in swept.items()]
+    if not cut:
+        return notes
     t1 = report.t_span[1]
     budget = getattr(report, "row_budget", None)
     clock = getattr(report, "budget_clock", "CPU")
@@ -332,7 +343,7 @@ def _cut_notes(report):
     limit = f"{budget:g} s of {clock} time per run" if budget else "the row budget"
     return [f"CUT at the row budget ({limit}; `--row-budget` sets it, 0 for none): "
             + "; ".join(parts) + ". A cut run is never recommended; its tighter tolerances take "
-            f"longer still."]
+            f"longer still."] + notes
 
 
 def _energy_notes(report):

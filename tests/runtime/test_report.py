@@ -611,3 +611,23 @@ def test_the_reference_check_stops_where_the_two_part(osc):
     if cut.check_stopped_at is not None:      # stopped by a poll (every 50 ms): the run was long enough
         assert t[h] <= cut.check_stopped_at < t1 and np.isnan(cut.agreement_t[-1])
         assert "its check stopped at t = " in cut.describe()
+
+
+def test_a_method_whose_runs_used_its_sweep_budget_stops_there(osc, monkeypatch):
+    """A method's runs having used SWEEP_BUDGETS row budgets together, its tighter tolerances are
+    not run (each within budget, they would still add up): the rows and the notes say so.  The
+    factor is made tiny so that the first run's own CPU time uses it up."""
+    import eomc.runtime.report as report_module
+    monkeypatch.setattr(report_module, "SWEEP_BUDGETS", 1e-12)
+    rep = work_precision(osc, [1.0, 0.0], (0.0, 2.0), methods=("dop853", "radau"),
+                         tolerances=(1e-4, 1e-6, 1e-8), repeats=1, progress=False, n_points=11,
+                         row_budget=100.0)
+    for method in ("dop853", "radau"):
+        rows = [r for r in rep.rows if r["method"] == method]
+        assert rows[0]["status"] == 0
+        for r in rows[1:]:
+            assert r["status"] == -1 and re.search(
+                rf"not run: {method}'s runs at looser tolerances took \d+ s of CPU time together", r["message"])
+    md = rep.summary_markdown()
+    assert "dop853 at 1e-06, 1e-08 not run: its runs at looser tolerances used" in md and "FAILED" not in md
+    assert rep.recommend(1e-3) is not None
