@@ -176,43 +176,70 @@ def scaled_rows(x, x_ref, scale):
         return np.sqrt(np.mean(((np.asarray(x, float) - x_ref) / scale) ** 2, axis=1))
 
 
-def _c_check_until_apart(model, x0, t_span, p, r, t_eval, method, tol, project, atol, ref_x, scale,
-                         level):
-    """The check run, compared with the reference's rows as it writes its own, and stopped
-    (eomc_options.stop) once one differs from the reference's by more than ``level`` (scaled
-    error): errors are measured only before that row (Reference.horizon), so the rest of the
-    check would tell nothing (G1 falling onto its feet: its Radau check took 82 s to t = 10).
-    Returns (result, stopped): the rows written up to the stop, the parting row among them."""
-    a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=tol, atol=atol, t_eval=t_eval,
-                max_steps=10 ** 7, project=project)
-    flag = model.ffi.new("int *")
-    a["stop"] = flag
-    call, x_out, x_last, stats = bind_call(model, a)
-    times = a["t_eval"]
-    done = threading.Event()
+class _CheckRun:
+    """Our own check run (Radau or DOP853) on a thread of its own (the C loop releases the GIL),
+    stoppable (eomc_options.stop, read at each model evaluation), its rows readable as they come.
 
-    def written():      # a step's rows are written before stats.t moves past them
-        return int(np.searchsorted(times, stats.t, side="left"))
+    Started before the reference when the report may use two cores (``parallel``): a DOP853
+    reference of more than SCIPY_MAX_STEPS steps is checked by Radau, and the two then take
+    the longer of their times, not the sum (G1: 34 s and 82 s, s34)."""
 
-    def watch():
-        seen = 0
-        while not done.wait(STOP_POLL_S):
-            n = min(written(), len(ref_x))
-            if n > seen:
-                if np.any(~(scaled_rows(x_out[seen:n], ref_x[seen:n], scale) <= level)):
-                    flag[0] = 1
+    def __init__(self, model, x0, t_span, p, r, t_eval, method, tol, project, atol):
+        self.method, self.tol, self.atol = method, tol, atol
+        self.a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=tol, atol=atol, t_eval=t_eval,
+                         max_steps=10 ** 7, project=project)
+        self.flag = model.ffi.new("int *")
+        self.a["stop"] = self.flag
+        self.call, self.x_out, self.x_last, self.stats = bind_call(model, self.a)
+        self.error = None
+        self.thread = threading.Thread(target=self._go, daemon=True, name="eomc-reference-check")
+        self.thread.start()
+
+    def _go(self):
+        try:
+            self.call()
+        except BaseException as exc:        # noqa: BLE001 -- raised again on the caller's thread
+            self.error = exc
+
+    def written(self):
+        """Rows certainly written: all once the run ended, else those before the time it reached
+        (the integrators write a step's rows before they move stats.t past them)."""
+        if not self.thread.is_alive():
+            return int(self.stats.n_out)
+        return int(np.searchsorted(self.a["t_eval"], self.stats.t, side="left"))
+
+    def cancel(self):
+        self.flag[0] = 1
+        self.thread.join()
+
+    def result(self, model, ref_x, scale, level):
+        """Follow the run to its end, comparing its rows with the reference's (``ref_x``) as they
+        come, and stop it at the first one that differs by more than ``level`` (scaled error;
+        None: never).  Returns (SimulationResult, stopped): the rows written, the parting row
+        among them."""
+        def watch():
+            seen = 0
+            while True:
+                alive = self.thread.is_alive()
+                n = min(self.written(), len(ref_x))
+                if level is not None and n > seen:
+                    if np.any(~(scaled_rows(self.x_out[seen:n], ref_x[seen:n], scale) <= level)):
+                        self.cancel()
+                        return
+                    seen = n
+                if not alive:
                     return
-                seen = n
-    watcher = threading.Thread(target=watch, daemon=True, name="eomc-reference-check-watch")
-    watcher.start()
-    try:
-        follow_integration(lambda: (stats.t, stats.steps), a["t0"], a["t1"], call)
-    finally:
-        done.set()
-        watcher.join()
-    got = {f: getattr(stats, f) for f in _STAT_FIELDS}
-    res = finish(model, a, x_out, got, x_last, raise_on_failure=False)
-    return res, bool(flag[0]) and got["status"] == ABORTED
+                self.thread.join(STOP_POLL_S)
+        try:
+            follow_integration(lambda: (self.stats.t, self.stats.steps), self.a["t0"], self.a["t1"], watch)
+        except BaseException:      # Ctrl-C, SIGTERM: the check stops too
+            self.cancel()
+            raise
+        if self.error is not None:
+            raise self.error
+        got = {f: getattr(self.stats, f) for f in _STAT_FIELDS}
+        res = finish(model, self.a, self.x_out, got, self.x_last, raise_on_failure=False)
+        return res, bool(self.flag[0]) and got["status"] == ABORTED
 
 
 def _input_function(a, ninput):
@@ -255,8 +282,9 @@ def _scipy_check(model, a, t_eval, method, tol, atol=None):
     return sol.y.T
 
 
-def _primary(model, x0, t_span, p, r, t_eval, method, tol, project, atol):
-    """The reference run: DOP853 at tol, or (method="auto") Radau when DOP853 says stiff."""
+def _primary(model, x0, t_span, p, r, t_eval, method, tol, project, atol, on_radau=None):
+    """The reference run: DOP853 at tol, or (method="auto") Radau when DOP853 says stiff
+    (``on_radau()`` is called before that Radau run)."""
     if method not in REFERENCE_METHODS:
         raise ValueError(f"unknown reference method {method!r}; valid: {', '.join(REFERENCE_METHODS)}")
     if method in ("dop853", "auto"):
@@ -264,6 +292,8 @@ def _primary(model, x0, t_span, p, r, t_eval, method, tol, project, atol):
                                  stiff_check=(method == "auto"), atol=atol)
         if res.status == 0 or method == "dop853" or res.status not in (6, 7):
             return res, elapsed, a, tol
+        if on_radau is not None:
+            on_radau()
     tol = max(tol, RADAU_FINEST)
     res, elapsed, a = _c_run(model, x0, t_span, p, r, t_eval, "radau", tol, project, atol=atol)
     return res, elapsed, a, tol
@@ -278,7 +308,7 @@ def _auto_check(model, res):
 
 
 def compute_reference(model, x0, t_span, t_eval, p=None, r=None, tol=1e-13, check="auto",
-                      project=False, method="auto", atol=None, stop_level=None):
+                      project=False, method="auto", atol=None, stop_level=None, parallel=False):
     """Integrate the reference at rtol ``tol`` (and ``atol``, default ``tol``; the report ties
     both to its finest tolerance, :func:`tied_tolerances`) and check it a second way.
 
@@ -295,12 +325,27 @@ def compute_reference(model, x0, t_span, t_eval, p=None, r=None, tol=1e-13, chec
     ``stop_level``: a check run by our own code ("radau", "dop853-half") is stopped at the first
     output time where it differs from the reference by more than this (scaled error): nothing
     after it is judged (Reference.horizon at that level); agreement_t is NaN from where it
-    stopped, and ``check_stopped_at`` says where.
+    stopped, and ``check_stopped_at`` says where.  ``parallel``: where the check may be our Radau
+    (check "auto" or "radau", a DOP853 reference, a model with jac_x) it starts at once on a
+    thread of its own, and is dropped if the reference ends up checked another way.
     """
     if check not in CHECK_METHODS:
         raise ValueError(f"unknown reference check {check!r}; valid: {', '.join(CHECK_METHODS)}")
     atol = tol if atol is None else atol
-    res, elapsed, a, tol = _primary(model, x0, t_span, p, r, t_eval, method, tol, project, atol)
+    early = None
+    if (parallel and check in ("auto", "radau") and method in ("auto", "dop853")
+            and model.c_model.jac_x != model.ffi.NULL):
+        early = _CheckRun(model, x0, t_span, p, r, t_eval, "radau", max(tol, RADAU_FINEST), project, atol)
+    try:
+        res, elapsed, a, tol = _primary(model, x0, t_span, p, r, t_eval, method, tol, project, atol,
+                                        on_radau=early.cancel if early is not None else None)
+    except BaseException:
+        if early is not None:
+            early.cancel()
+        raise
+    if early is not None and (res.status or res.method != "dop853"):
+        early.cancel()
+        early = None
     if res.status:
         reached = float(res.t[-1]) if res.t.size else float(t_span[0])
         raise SimulationError(f"the reference solution failed ({res.method} at {_tols(tol, atol)}, "
@@ -309,6 +354,9 @@ def compute_reference(model, x0, t_span, t_eval, p=None, r=None, tol=1e-13, chec
     chosen = check == "auto"
     if chosen:
         check = _auto_check(model, res)
+    if early is not None and check != "radau":
+        early.cancel()
+        early = None
     check_tol, check_atol, agreement, other_x = float("nan"), None, float("nan"), None
     check_stopped_at = None
     scipy_failed = None
@@ -330,12 +378,16 @@ def compute_reference(model, x0, t_span, t_eval, p=None, r=None, tol=1e-13, chec
         check_atol = atol if check == "radau" else atol / 2
         stopped = False
         with stage(f"its check, {how} at rtol={check_tol:g}"):      # named in the progress lines
-            if stop_level is None:
+            if early is not None and (how, check_tol, check_atol) == (early.method, early.tol, early.atol):
+                other, stopped = early.result(model, res.x, scale, stop_level)
+            elif stop_level is None:
                 other, _, _ = _c_run(model, x0, t_span, p, r, t_eval, how, check_tol, project,
                                      atol=check_atol)
             else:
-                other, stopped = _c_check_until_apart(model, x0, t_span, p, r, t_eval, how, check_tol,
-                                                      project, check_atol, res.x, scale, stop_level)
+                other, stopped = _CheckRun(model, x0, t_span, p, r, t_eval, how, check_tol, project,
+                                           check_atol).result(model, res.x, scale, stop_level)
+            if early is not None and early.thread.is_alive():
+                early.cancel()
         if other.status and not stopped:
             raise SimulationError(f"the reference check failed: {other.message}")
         other_x = other.x

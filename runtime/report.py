@@ -397,7 +397,8 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
             # its check stops where the two part by more than the errors are measured to (report.window)
             reference = compute_reference(model, x0, (t0, t1), t_eval, p=p, r=r, tol=rtol, atol=atol,
                                           check=reference_check, project=project,
-                                          method=reference_method, stop_level=AGREE * float(target))
+                                          method=reference_method, stop_level=AGREE * float(target),
+                                          parallel=(int(threads) if threads else default_threads(2)) >= 2)
         if progress:   # what ran (auto resolves, Radau's rtol is clipped): as report.md records it
             print(f"eomc report: {reference.describe()}", file=sys.stderr, flush=True)
     if reference.x.shape != (t_eval.size, model.nx):

@@ -631,3 +631,26 @@ def test_a_method_whose_runs_used_its_sweep_budget_stops_there(osc, monkeypatch)
     md = rep.summary_markdown()
     assert "dop853 at 1e-06, 1e-08 not run: its runs at looser tolerances used" in md and "FAILED" not in md
     assert rep.recommend(1e-3) is not None
+
+
+def test_a_check_started_with_the_reference_gives_the_same_reference(osc):
+    """``parallel``: our Radau check starts on a thread of its own with the reference (the two
+    take the longer of their times, not the sum); the rows and the agreement are those of the
+    check run after it.  A check that ends up another way (scipy, under 20 000 reference steps)
+    is dropped, its thread ended."""
+    import threading
+    t = np.linspace(0.0, 20.0, 201)
+    kw = dict(tol=1e-11, check="radau")
+    one = compute_reference(osc, [1.0, 0.0], (0.0, 20.0), t, **kw)
+    two = compute_reference(osc, [1.0, 0.0], (0.0, 20.0), t, parallel=True, **kw)
+    np.testing.assert_array_equal(one.x, two.x)
+    np.testing.assert_array_equal(one.agreement_t, two.agreement_t)
+    assert one.check_method == two.check_method == "radau" and one.agreement == two.agreement > 0
+    level = float(one.agreement_t[100])
+    h = one.horizon(level)
+    stopped = compute_reference(osc, [1.0, 0.0], (0.0, 20.0), t, parallel=True, stop_level=level, **kw)
+    assert stopped.horizon(level) == h
+    np.testing.assert_array_equal(stopped.agreement_t[:h + 1], one.agreement_t[:h + 1])
+    auto = compute_reference(osc, [1.0, 0.0], (0.0, 20.0), t, tol=1e-11, parallel=True)
+    assert auto.check_method == "scipy dop853"
+    assert not [th for th in threading.enumerate() if th.name == "eomc-reference-check"]
