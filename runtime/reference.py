@@ -134,7 +134,7 @@ class Reference:
         text += (f"; checked against {self.check_method} at {_tols(self.check_tol, self.check_atol)}: "
                  f"agreement {self.agreement:.2e} (scaled error)")
         if self.check_stopped_at is not None:
-            text += (f" (its check stopped at t = {self.check_stopped_at:.4g}, past where the two part: "
+            text += (f" (its check stopped at t={self.check_stopped_at:.4g}, past where the two part: "
                      f"nothing after is judged)")
         return text
 

@@ -4,7 +4,9 @@ MODEL is a model file (``.py``: compiled first, SymPy imported only then) or
 a built model directory / ``NAME.json`` (``eomc.load``: no SymPy).  Writes
 OUTDIR/report.csv, report.png and report.md (see eomc.runtime.report for what
 each column means) and prints the table and the recommendation; progress goes
-to stderr.
+to stderr.  Each run may take --row-budget seconds of CPU time (60 by default): one that
+takes longer is stopped and shown as cut (where, after how long), never recommended, and its
+method's tighter tolerances are not run (s34: G1's report with no flags ran 41 min).
 
 Exit status 0; 3 (inconclusive, as `eomc check`) when the reference cannot be computed (it
 says where, why and what to change) or its two computations part within the first output

@@ -610,7 +610,7 @@ def test_the_reference_check_stops_where_the_two_part(osc):
     np.testing.assert_array_equal(cut.x, full.x)
     if cut.check_stopped_at is not None:      # stopped by a poll (every 50 ms): the run was long enough
         assert t[h] <= cut.check_stopped_at < t1 and np.isnan(cut.agreement_t[-1])
-        assert "its check stopped at t = " in cut.describe()
+        assert "its check stopped at t=" in cut.describe()
 
 
 def test_a_method_whose_runs_used_its_sweep_budget_stops_there(osc, monkeypatch):
