@@ -59,21 +59,19 @@ class References:
         return None
 
 
-class _Run:
-    """One reference on a thread of its own: its rows readable as they come, stoppable."""
+class BackgroundRun:
+    """A prepared integration (simulate.prepare's ``a``) on a thread of its own -- the C loop
+    releases the GIL -- its rows readable as they come, stoppable through eomc_options.stop (read
+    at each model evaluation).  Shared by check's references (:class:`_Run`) and the report's
+    own-code check (reference._CheckRun)."""
 
-    def __init__(self, model, x0, p, t_final, t_eval, method, rtol, atol, max_steps):
-        if model.nhol + model.nvel:     # a constrained start completed as simulate completes it
-            x0 = checked_start(model, x0, (0.0, t_final), p, None, atol, None)
-        self.model, self.t_eval = model, t_eval
-        self.a = prepare(model, x0, (0.0, t_final), p=p, method=method, rtol=rtol, atol=atol,
-                         t_eval=t_eval, max_steps=max_steps)
+    def __init__(self, model, a, name):
+        self.model, self.a = model, a
         self.flag = model.ffi.new("int *")
         self.a["stop"] = self.flag
         self.call, self.x_out, self.x_last, self.stats = bind_call(model, self.a)
         self.error = None
-        self.thread = threading.Thread(target=self._go, daemon=True,
-                                       name=f"eomc-check-reference-{rtol:g}")
+        self.thread = threading.Thread(target=self._go, daemon=True, name=name)
 
     def _go(self):
         try:
@@ -86,7 +84,19 @@ class _Run:
         has reached (the integrators write a step's rows before they move stats.t past it)."""
         if not self.thread.is_alive():
             return int(self.stats.n_out)
-        return int(np.searchsorted(self.t_eval, self.stats.t, side="left"))
+        return int(np.searchsorted(self.a["t_eval"], self.stats.t, side="left"))
+
+
+class _Run(BackgroundRun):
+    """One reference on a thread of its own: its rows readable as they come, stoppable."""
+
+    def __init__(self, model, x0, p, t_final, t_eval, method, rtol, atol, max_steps):
+        if model.nhol + model.nvel:     # a constrained start completed as simulate completes it
+            x0 = checked_start(model, x0, (0.0, t_final), p, None, atol, None)
+        self.t_eval = t_eval
+        super().__init__(model, prepare(model, x0, (0.0, t_final), p=p, method=method, rtol=rtol, atol=atol,
+                                        t_eval=t_eval, max_steps=max_steps),
+                         name=f"eomc-check-reference-{rtol:g}")
 
     def stop(self):
         self.flag[0] = 1

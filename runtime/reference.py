@@ -21,7 +21,6 @@ references agree on says so instead of trusting the reference silently.
 The error measure used everywhere (see :func:`scaled_error`) is defined here
 so that the reference check and the grid measure the same thing.
 """
-import threading
 import time
 from dataclasses import dataclass
 
@@ -29,8 +28,9 @@ import numpy as np
 
 from eomc.runtime.errors import SimulationError
 
+from .check_references import BackgroundRun
 from .progress import follow_integration, stage
-from .simulate import _STAT_FIELDS, bind_call, finish, prepare, run_prepared, scipy_fun
+from .simulate import _STAT_FIELDS, finish, prepare, run_prepared, scipy_fun
 
 __all__ = ["Reference", "compute_reference", "scaled_error", "state_scale", "SCALE_FLOOR",
            "CHECK_METHODS", "REFERENCE_METHODS", "tied_tolerances", "MIN_WINDOW"]
@@ -176,7 +176,7 @@ def scaled_rows(x, x_ref, scale):
         return np.sqrt(np.mean(((np.asarray(x, float) - x_ref) / scale) ** 2, axis=1))
 
 
-class _CheckRun:
+class _CheckRun(BackgroundRun):
     """Our own check run (Radau or DOP853) on a thread of its own (the C loop releases the GIL),
     stoppable (eomc_options.stop, read at each model evaluation), its rows readable as they come.
 
@@ -186,27 +186,10 @@ class _CheckRun:
 
     def __init__(self, model, x0, t_span, p, r, t_eval, method, tol, project, atol):
         self.method, self.tol, self.atol = method, tol, atol
-        self.a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=tol, atol=atol, t_eval=t_eval,
-                         max_steps=10 ** 7, project=project)
-        self.flag = model.ffi.new("int *")
-        self.a["stop"] = self.flag
-        self.call, self.x_out, self.x_last, self.stats = bind_call(model, self.a)
-        self.error = None
-        self.thread = threading.Thread(target=self._go, daemon=True, name="eomc-reference-check")
+        super().__init__(model, prepare(model, x0, t_span, p=p, r=r, method=method, rtol=tol, atol=atol,
+                                        t_eval=t_eval, max_steps=10 ** 7, project=project),
+                         name="eomc-reference-check")
         self.thread.start()
-
-    def _go(self):
-        try:
-            self.call()
-        except BaseException as exc:        # noqa: BLE001 -- raised again on the caller's thread
-            self.error = exc
-
-    def written(self):
-        """Rows certainly written: all once the run ended, else those before the time it reached
-        (the integrators write a step's rows before they move stats.t past them)."""
-        if not self.thread.is_alive():
-            return int(self.stats.n_out)
-        return int(np.searchsorted(self.a["t_eval"], self.stats.t, side="left"))
 
     def cancel(self):
         self.flag[0] = 1
