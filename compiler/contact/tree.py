@@ -221,6 +221,12 @@ def with_contacts(built, contacts, collisions, placements, fold=False):
         link = spec.link
         found = link_frame(built.source, link, placements)
         if found is None:
+            parts = [part.strip() for part in link.split(",")]
+            if len(parts) > 1 and all(link_frame(built.source, part, placements) is not None for part in parts):
+                # `--contact FL_foot,FR_foot`: a list where one link was meant (the commas belong to
+                # the centre x,y,z); say how to ask for several instead of "no such link"
+                raise ModelError(f"contact on link {link!r}: one link per --contact; for several, repeat it: "
+                                 + " ".join(f"--contact {part}" for part in parts))
             raise ModelError(f"contact on link {link!r}: the robot has no such link{nearest(link, known)} "
                              f"(links: {', '.join(known[:12])}{', ...' if len(known) > 12 else ''})")
         body_link, T = found

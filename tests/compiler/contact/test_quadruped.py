@@ -104,6 +104,10 @@ def test_bad_contacts_are_refused(tmp_path):
     path = qs.solo12_path()
     with pytest.raises(ModelError, match="contact on link 'NO_SUCH_FOOT': the robot has no such link"):
         eomc.compile(UrdfModel(path, floating_base=True), contacts=["NO_SUCH_FOOT"], cache_dir=tmp_path)
+    # a comma-list of feet (the commas are the centre's x,y,z) is told to repeat --contact
+    with pytest.raises(ModelError, match="one link per --contact; for several, repeat it: "
+                                         "--contact FL_FOOT --contact HR_FOOT"):
+        eomc.compile(UrdfModel(path, floating_base=True), contacts=["FL_FOOT,HR_FOOT"], cache_dir=tmp_path)
     with pytest.raises(ModelError, match=r"contact 'FL_FOOT' \(link FL_FOOT\): stiffness k = -5 must be >= 0"):
         eomc.compile(UrdfModel(path, floating_base=True), contacts=[dict(link="FL_FOOT", k=-5)],
                      cache_dir=tmp_path)
