@@ -54,31 +54,82 @@ def _stored(r, K, E, push, hold):
 def stored_along(r, K, E, push=0.0, hold=None):
     """stored() for an array of depths ``r`` (one limit's depth past its bound at every recorded
     point of a run; <= 0 or NaN where inside its range: 0): the energy verdict's total energy
-    along a run (runtime/switching._energy_rise).  One cumulative quadrature for all depths:
-    stored()'s graded panels up to the largest depth, cut at every depth, 8 Gauss-Legendre
-    nodes on each piece (each inside one of stored()'s panels: as accurate), summed in order
-    (walker2d's 64 rollout rows x 501 steps: 0.35 s with a quadrature per depth, measured)."""
+    along a run (runtime/switching._energy_rise).
+
+    The law's work at K = 1 is kept per shape (E, push, hold) at the edges of fixed panels graded
+    geometrically (1/16 of an octave each, finer than stored()'s 40) from a hundredth of the law's
+    smallest width to SPRING_REACH (:func:`_work_at_edges`: one quadrature per shape, cached); a
+    depth's energy is K times the work up to the edge below it plus 8 Gauss-Legendre nodes on the
+    piece from that edge (inside one panel: as accurate as stored()).  The force is linear in K
+    (the push's smoothing scales with it), so one table serves every stiffness.  Why: the verdict
+    runs after every simulate, and a quadrature per run (a graded grid up to the run's deepest
+    point, cut at every depth) cost gymnasium's hopper 0.44 ms of its 1.7 ms at rtol 1e-2, more
+    than the integration (benchmarks/results/contact_wp.md, session 36).  Depths past SPRING_REACH
+    (not met by a run that stays a model) take that quadrature."""
     r = np.asarray(r, dtype=float)
     out = np.zeros(r.shape)
     K, E = float(K), float(E)
     past = np.flatnonzero(np.isfinite(r) & (r > 0))
     if not past.size or not K > 0 or not E > 0:
         return out
-    G, w = (float(hold[0]), float(hold[1])) if hold else (1.0, E)
-    start = min(E, w) / 100.0
-    depths, back = np.unique(r[past], return_inverse=True)
-    grid = np.geomspace(start, depths[-1], _PANELS) if depths[-1] > start else np.empty(0)
-    edges = np.unique(np.concatenate(([0.0], grid, depths)))
-    a, b = edges[:-1, None], edges[1:, None]
-    d = (a + b) / 2 + (b - a) / 2 * _NODES
-    force = K * (d + (G - 1.0) * w * np.tanh(d / w)) if hold else K * d
+    push = float(push)
+    hold = (float(hold[0]), float(hold[1])) if hold else None
+    d = r[past]
+    if float(d.max()) >= SPRING_REACH:
+        out[past] = _stored_graded(d, K, E, push, hold)
+        return out
+    edges, work = _work_at_edges(E, push, hold)
+    k = np.searchsorted(edges, d, side="right") - 1
+    a = edges[k]
+    out[past] = K * (work[k] + _pieces(a, d, E, push, hold))
+    return out
+
+
+def _law(d, E, push, hold):
+    """g(d)² F(d) of stored()'s law at K = 1 (the integrand; d an array)."""
+    if hold:
+        G, w = hold
+        force = d + (G - 1.0) * w * np.tanh(d / w)
+    else:
+        force = d
     if push:
-        s = K * E * float(push)
+        s = E * push
         force = (force + np.sqrt(force * force + s * s)) / 2
     g = d / (d + E)
-    work = np.concatenate(([0.0], np.cumsum(np.sum((b - a) / 2 * _WEIGHTS * g * g * force, axis=1))))
-    out[past] = work[np.searchsorted(edges, depths)][back]
-    return out
+    return g * g * force
+
+
+def _pieces(a, b, E, push, hold):
+    """∫_a^b of the law at K = 1 per element (a, b arrays): 8 Gauss-Legendre nodes each."""
+    a, b = a[:, None], b[:, None]
+    nodes = (a + b) / 2 + (b - a) / 2 * _NODES
+    return np.sum((b - a) / 2 * _WEIGHTS * _law(nodes, E, push, hold), axis=1)
+
+
+@lru_cache(maxsize=64)
+def _work_at_edges(E, push, hold):
+    """(edges, work): 0, then 1/16-octave steps from a hundredth of the law's smallest width past
+    SPRING_REACH, and the law's work at K = 1 from 0 to each (read-only arrays: cached)."""
+    w = hold[1] if hold else E
+    start = min(E, w) / 100.0
+    n = int(np.ceil(16.0 * np.log2(SPRING_REACH / start))) + 1
+    edges = np.concatenate(([0.0], start * 2.0 ** (np.arange(n + 1) / 16.0)))
+    work = np.concatenate(([0.0], np.cumsum(_pieces(edges[:-1], edges[1:], E, push, hold))))
+    edges.flags.writeable = False
+    work.flags.writeable = False
+    return edges, work
+
+
+def _stored_graded(r, K, E, push, hold):
+    """stored() at each depth of ``r`` (> 0, finite): the graded panels up to the largest depth,
+    cut at every depth, 8 Gauss-Legendre nodes on each piece, summed in order."""
+    G, w = hold if hold else (1.0, E)
+    start = min(E, w) / 100.0
+    depths, back = np.unique(r, return_inverse=True)
+    grid = np.geomspace(start, depths[-1], _PANELS) if depths[-1] > start else np.empty(0)
+    edges = np.unique(np.concatenate(([0.0], grid, depths)))
+    work = np.concatenate(([0.0], np.cumsum(K * _pieces(edges[:-1], edges[1:], E, push, hold))))
+    return work[np.searchsorted(edges, depths)][back]
 
 
 SPRING_BITS = 4         # eomc_spring.bits: 16 knots an octave (relative spacing <= 1/16)

@@ -47,6 +47,13 @@ def test_stored_along_is_stored_at_each_depth():
         want = [stored(d, 693.0, 3e-4, *shape) if np.isfinite(d) else 0.0 for d in r]
         assert np.allclose(got, want, rtol=1e-12, atol=0.0), (shape, got, want)
         assert got[-1] == 0.0 and np.all(got[:2] == 0.0) and np.all(got[2:-1] > 0.0)
+        # past the cached table's reach (SPRING_REACH), the run's own graded quadrature: the same numbers
+        far = np.array([0.5, 20.0])
+        assert np.allclose(stored_along(far, 693.0, 3e-4, *shape), [stored(d, 693.0, 3e-4, *shape) for d in far],
+                           rtol=1e-12, atol=0.0)
+    # one cached table per shape serves every stiffness: the energy is linear in K
+    assert np.allclose(stored_along(r, 2.5, 3e-4, 0.3, None)[2:-1] / 2.5,
+                       stored_along(r, 1.0, 3e-4, 0.3, None)[2:-1], rtol=1e-14, atol=0.0)
 
 
 @pytest.mark.parametrize("E,push,hold", [(3e-4, 0.1, (19.0, 1e-3)), (3e-4, 0.1, (1.03, 1e-3)),
