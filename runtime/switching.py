@@ -568,39 +568,17 @@ def _springs_along(model, p, sw, X):
     """The energy the limit springs the energy output leaves out hold at each row of states X
     (rows, nx), or None when some limit's shape is unknown (see _held_sum)."""
     from .limit_energy import stored_along
-    laws = _spring_laws(model, sw)
-    if laws is None:
+    specs = _spring_specs(model, sw)      # (called when the energy output leaves the springs out)
+    if specs is None:
         return None
     _, _, _, limit_at = _bounds(sw, p)
     ix = _indices(sw)
     depth = ix["sign"][None, :] * (X[:, ix["state"]] - limit_at[None, :])
     total = np.zeros(X.shape[0])
     for j in np.flatnonzero(np.any(depth > 0, axis=0)):
-        k, e, push, hold = laws[j]
+        _, k, e, (push, hold) = specs[j]
         total += stored_along(depth[:, j], p[k], p[e], push, hold)
     return total
-
-
-def _spring_laws(model, sw):
-    """Per limit (its stiffness's and width's parameter indices, push, hold) of NAME.json's
-    ``limit_laws``, or None when some limit's shape or parameters are unknown; kept on the
-    Switches (a model's are fixed: the verdict after every run read them again, name by name)."""
-    got = sw.__dict__.get("_spring_laws", False)
-    if got is not False:
-        return got
-    laws = model.metadata.get("limit_laws") or {}
-    index = {name: i for i, name in enumerate(getattr(model, "param_names", ()))}
-    got = []
-    for lim in sw.limits:
-        shape = laws.get(lim.joint)
-        k, e = index.get(f"limit_k_{lim.joint}"), index.get(f"limit_e_{lim.joint}")
-        if shape is None or k is None or e is None:
-            got = None
-            break
-        hold = shape.get("hold")
-        got.append((k, e, float(shape.get("push", 0.0)), (float(hold[0]), float(hold[1])) if hold else None))
-    object.__setattr__(sw, "_spring_laws", got)
-    return got
 
 
 def energy_allowance(model, p, x0, in_contact, sw):
