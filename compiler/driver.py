@@ -385,7 +385,7 @@ def _warn_singular_start(model, x0):
     import numpy as np
 
     from eomc.runtime.diagnose import singular_direction
-    from eomc.runtime.errors import EomcWarning
+    from eomc.runtime.errors import SingularStartWarning
     from .model.spec import caller_level
     try:
         x = np.zeros(model.nx) if x0 is None else np.asarray(x0, dtype=float)
@@ -393,7 +393,7 @@ def _warn_singular_start(model, x0):
     except Exception:                    # a warning must never break a build that worked
         why = ""
     if why:
-        warnings.warn(EomcWarning(
+        warnings.warn(SingularStartWarning(
             f"{model.name}: at the default start {why[2:]}; a simulation from there will be very stiff "
             f"or stop" + ("" if "--param" in why else " (give those bodies inertia, or start elsewhere)")),
             stacklevel=caller_level())

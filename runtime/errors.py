@@ -17,6 +17,7 @@ __all__ = [
     "EomcNote",
     "BuildNote",
     "DefaultStartWarning",
+    "SingularStartWarning",
 ]
 
 
@@ -83,6 +84,14 @@ class BuildNote(EomcNote):
     every simulate, check and animate).  ``details``: lines the note's one line leaves out (each
     kept link's moments and line), printed by ``eomc inspect MODEL``."""
     details = ()
+
+
+class SingularStartWarning(EomcWarning):
+    """The mass matrix is singular (to rounding) at the default start with the file's parameters:
+    ``eomc.compile`` says so at the build, naming the speeds nothing resists and, where a body
+    lacks inertia, the ``--param`` values that give it some (icub.urdf's head).  A category of its
+    own so that the command line, given those parameters, can judge the start again with them
+    and stay quiet when they mend it (facade/cli/common.load_model)."""
 
 
 class DefaultStartWarning(EomcWarning):

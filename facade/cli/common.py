@@ -205,7 +205,7 @@ def reads_implicit(methods):
 
 def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=(),
                contacts=None, allow_nonphysical_inertia=False, limits=True, functions=None, check=None,
-               orientation=None, pairs=None, methods=None):
+               orientation=None, pairs=None, methods=None, params=None):
     """A runtime Model from a model file (.py, .urdf, MuJoCo's .xml; compiled) or a built
     directory / json (loaded).  ``ignore``: an MJCF model's ignorable elements (--ignore).
 
@@ -218,6 +218,9 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
     ``frames``: frame outputs to compile in; a built model must already have them.
     ``check``: called with the model as read, before anything is derived (:func:`read_checks`).
+    ``params``: the command's --param values ({name: value}, from :func:`read_checks`): the build's
+    warning of a singular mass matrix at the default start is judged again with them
+    (:func:`_judged_with`), so following its own advice (--param Ixx_head=...) silences it.
 
     A model file built before with the same options, whose bytes (and the files its build
     read) have not changed, is loaded from the build cache without deriving it again
@@ -240,17 +243,7 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
         options = reuse_options(floating_base=floating_base, formulation=formulation, frames=frames, ignore=ignore,
                                 contacts=contacts, allow_nonphysical_inertia=allow_nonphysical_inertia,
                                 limits=limits, functions=functions, orientation=orientation, pairs=pairs)
-        model, key = _reused(path, options, check)      # the default set serves every method
-        if model is not None:
-            return model
-        if functions is None and methods is not None and not reads_implicit(methods):
-            full_key = key
-            options = {**options, "functions": without_implicit()}
-            model, key = _reused(path, options, check)
-            if model is not None:
-                return model
-            return _compiled(path, options, key, quiet, check, also=full_key)
-        return _compiled(path, options, key, quiet, check)
+        return _judged_with(params, lambda: _reused_or_compiled(path, options, quiet, check, functions, methods))
     if contacts:
         raise ValueError(f"{path}: --contact applies to a robot (.urdf, .xml) being compiled, not to a built model")
     from eomc.runtime.loader import load
@@ -262,6 +255,61 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
                          f"{have}); frames are compiled in: rebuild with eomc build "
                          f"{' '.join('--frame ' + f for f in missing)}, or simulate the model file")
     return model
+
+
+def _reused_or_compiled(path, options, quiet, check, functions, methods):
+    """load_model's model file: reused from the build cache, or compiled."""
+    model, key = _reused(path, options, check)      # the default set serves every method
+    if model is not None:
+        return model
+    if functions is None and methods is not None and not reads_implicit(methods):
+        full_key = key
+        options = {**options, "functions": without_implicit()}
+        model, key = _reused(path, options, check)
+        if model is not None:
+            return model
+        return _compiled(path, options, key, quiet, check, also=full_key)
+    return _compiled(path, options, key, quiet, check)
+
+
+def _judged_with(params, get):
+    """get()'s model, its build's warnings given as they came, except a SingularStartWarning that
+    the command's --param values ``params`` mend: the mass matrix at the default start with them is
+    not singular.  Why: the warning names the --param values that give a body without inertia
+    some (icub.urdf's head), and a user who gives them should not be told again, with the file's
+    parameters, that the start is singular (session 36)."""
+    if not params:
+        return get()
+    import warnings
+
+    from eomc.compiler.build import reuse
+    from eomc.runtime.errors import SingularStartWarning
+    model, recorded = None, []
+    try:
+        with warnings.catch_warnings(record=True) as recorded:
+            model = get()
+    finally:
+        mended = model is not None and any(issubclass(w.category, SingularStartWarning) for w in recorded) \
+            and not _singular_start(model, params)
+        for w in recorded:
+            if not (mended and issubclass(w.category, SingularStartWarning)):
+                reuse.warn_again(w.message, w.filename, w.lineno, w.source)
+    return model
+
+
+def _singular_start(model, params):
+    """Whether the mass matrix is singular (to rounding) at the model's default start with the
+    parameters ``params`` ({name: value}) -- the build's test (compiler/driver._warn_singular_start)."""
+    import numpy as np
+
+    from eomc.runtime.diagnose import singular_direction
+    try:
+        p = np.asarray(parameter_values(model, params), dtype=float)
+        base = getattr(model, "initial_state", None)       # the build's start (no note, no move)
+        x = np.zeros(model.nx) if base is None else np.asarray(base, dtype=float)
+        return bool(singular_direction(model, 0.0, x, p=p, semidefinite=True))
+    except Exception:       # noqa: BLE001 -- unknown: keep the build's warning
+        return True
 
 
 def reuse_options(floating_base=False, formulation="auto", frames=None, ignore=(), contacts=None,
@@ -563,7 +611,7 @@ def read_checks(args):
                 raise _unknown(stem, "parameter", "--param", unknown, names.params)
             if given and names.law_check is not None:
                 names.law_check(given)
-    return {"check": check}
+    return {"check": check, "params": given}
 
 
 class _RunNames:

@@ -224,3 +224,32 @@ def test_a_point_mass_head_is_named_with_the_inertia_that_lets_the_run_finish(tm
     p.update({k: float(v) for k, v in suggested.items()})
     result = model.simulate({}, (0.0, 1.0), p=p)
     assert result.t[-1] == pytest.approx(1.0)
+
+
+def test_the_command_line_given_the_advised_inertia_does_not_warn_of_the_singular_start_again(tmp_path, monkeypatch):
+    """`eomc simulate neck.urdf --param Ixx_head=...` with the build warning's own values: the start
+    is judged again with them and the warning, true of the file's parameters only, is not given --
+    on the build and on the reused build; values that do not mend it keep it."""
+    import re
+    import warnings
+    from eomc.cli import main
+    from eomc.errors import SingularStartWarning
+    path = tmp_path / "neck.urdf"
+    path.write_text(NECK)
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    out = str(tmp_path / "t.csv")
+
+    def said(*args):
+        with warnings.catch_warnings(record=True) as record:
+            warnings.simplefilter("always")
+            status = main(["simulate", str(path), "-o", out, "-q", *args])
+        return status, [str(w.message) for w in record if issubclass(w.category, SingularStartWarning)]
+
+    _, start = said("--t-final", "0.01")
+    assert len(start) == 1 and "at the default start nothing resists" in start[0], start
+    advice = re.search(r"--param ((?:I\w+_head=[-\d.e]+ ?)+)", start[0]).group(1).split()
+    for _ in range(2):          # built (its own build: --param is no build option), then reused
+        status, start = said("--t-final", "0.2", "--param", *advice)
+        assert status in (0, None) and start == [], start
+    _, start = said("--t-final", "0.01", "--param", "Ixx_head=1e-9")
+    assert len(start) == 1, start
