@@ -18,6 +18,7 @@ __all__ = [
     "BuildNote",
     "DefaultStartWarning",
     "SingularStartWarning",
+    "GimbalLockWarning",
 ]
 
 
@@ -92,6 +93,14 @@ class SingularStartWarning(EomcWarning):
     lacks inertia, the ``--param`` values that give it some (icub.urdf's head).  A category of its
     own so that the command line, given those parameters, can judge the start again with them
     and stay quiet when they mend it (facade/cli/common.load_model)."""
+
+
+class GimbalLockWarning(EomcWarning):
+    """A URDF's three hinges with axes through one point and no inertia between them (Euler angles
+    of one rotation: human.urdf's hips) can reach their gimbal lock within the file's joint ranges;
+    the warning gives the narrower ``--param limit_...`` ranges that keep a run clear.  A category
+    of its own so that the command line, given such ranges, judges the locks again with them
+    (facade/cli/common.load_model)."""
 
 
 class DefaultStartWarning(EomcWarning):

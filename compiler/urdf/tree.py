@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from eomc.runtime.errors import BuildNote, EomcNote, EomcWarning, ModelFileError
+from eomc.runtime.errors import BuildNote, EomcNote, EomcWarning, GimbalLockWarning, ModelFileError
 
 from ..multibody.joint_kinds import KINDS
 from ..multibody.joints import identifier
@@ -636,7 +636,7 @@ def _check_gimbal_locks(robot, tree, notes):
                              f"point and no inertia between them (Euler angles of one rotation) "
                              f"{'reach their' if len(found) > 1 else 'reaches its'} gimbal lock: {'; '.join(parts)}. There the first and last axes line up, nothing "
                              f"resists their opposite motion (the mass matrix is singular): a run that gets "
-                             f"there stops, or steps across it with a warning{fix}", notes)
+                             f"there stops, or steps across it with a warning{fix}", notes, GimbalLockWarning)
 
 
 def _motion(joint):

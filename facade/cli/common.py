@@ -283,16 +283,15 @@ def _judged_with(params, get):
     import warnings
 
     from eomc.compiler.build import reuse
-    from eomc.runtime.errors import SingularStartWarning
+    from eomc.runtime.errors import GimbalLockWarning, SingularStartWarning
+    still = {SingularStartWarning: _singular_start, GimbalLockWarning: _gimbal_locks_in_reach}
     model, recorded = None, []
     try:
         with warnings.catch_warnings(record=True) as recorded:
             model = get()
     finally:
-        mended = model is not None and any(issubclass(w.category, SingularStartWarning) for w in recorded) \
-            and not _singular_start(model, params)
         for w in recorded:
-            if not (mended and issubclass(w.category, SingularStartWarning)):
+            if not (model is not None and w.category in still and not still[w.category](model, params)):
                 reuse.warn_again(w.message, w.filename, w.lineno, w.source)
     return model
 
@@ -308,6 +307,23 @@ def _singular_start(model, params):
         base = getattr(model, "initial_state", None)       # the build's start (no note, no move)
         x = np.zeros(model.nx) if base is None else np.asarray(base, dtype=float)
         return bool(singular_direction(model, 0.0, x, p=p, semidefinite=True))
+    except Exception:       # noqa: BLE001 -- unknown: keep the build's warning
+        return True
+
+
+def _gimbal_locks_in_reach(model, params):
+    """Whether a hinge triple's gimbal lock (NAME.json ``gimbal_locks``) is still within reach of its
+    middle joint's range with the limits ``params`` gives (the build's test:
+    compiler/urdf/tree._check_gimbal_locks, GIMBAL_MARGIN past a limit)."""
+    from eomc.compiler.urdf.tree import GIMBAL_MARGIN
+    try:
+        values = dict(zip(model.param_names, (float(v) for v in parameter_values(model, params))))
+        for lock in model.metadata.get("gimbal_locks") or ():
+            joint, angle = lock["state"][2:], float(lock["angle"])
+            lo, hi = values.get(f"limit_lo_{joint}", -float("inf")), values.get(f"limit_hi_{joint}", float("inf"))
+            if lo - GIMBAL_MARGIN <= angle <= hi + GIMBAL_MARGIN:
+                return True
+        return False
     except Exception:       # noqa: BLE001 -- unknown: keep the build's warning
         return True
 

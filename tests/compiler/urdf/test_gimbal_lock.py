@@ -144,3 +144,25 @@ def test_a_run_across_the_lock_is_warned_and_a_run_held_clear_is_not(tmp_path):
     held, said = run(p)
     assert held.status == 0 and held.x[:, model.state_names.index("q_hip_X")].max() < np.pi / 2 - 0.05
     assert said == []
+
+
+def test_the_command_line_given_the_suggested_limits_does_not_warn_of_the_lock_again(tmp_path, monkeypatch):
+    """`eomc simulate hip.urdf --param limit_hi_hip_X=1.421` (the warning's own advice): the locks are
+    judged again with the narrowed range and the warning, true of the file's range only, is not
+    given (built and reused); a range that still reaches the lock keeps it."""
+    from eomc.cli import main
+    from eomc.runtime.errors import GimbalLockWarning
+    path = _write(tmp_path, HIP.replace("UPPER", "1.570795"))
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+
+    def said(*args):
+        with warnings.catch_warnings(record=True) as record:
+            warnings.simplefilter("always")
+            main(["simulate", str(path), "-o", str(tmp_path / "t.csv"), "-q", "--t-final", "0.05", *args])
+        return [str(w.message) for w in record if issubclass(w.category, GimbalLockWarning)]
+
+    first = said()
+    assert len(first) == 1 and "--param limit_hi_hip_X=1.421" in first[0], first
+    assert said("--param", "limit_hi_hip_X=1.421") == []
+    assert said("--param", "limit_hi_hip_X=1.421") == []           # reused from the cache
+    assert len(said("--param", "limit_hi_hip_X=1.5")) == 1          # 1.5 + GIMBAL_MARGIN reaches pi/2
