@@ -22,7 +22,8 @@ from eomc.runtime.version import __version__
 from .cache import CACHE_SCHEMA, cache_root, get_or_build, hash_key, sha256_file
 from .cache_admin import auto_prune, max_size_from_env
 from .stack import CALLGRAPH_FLAG, measure_stack, stack_header_block, supports_callgraph
-from .toolchain import DEFAULT_CFLAGS, find_compiler, machine_flags, portable_from_env, run_compiler
+from .toolchain import (DEFAULT_CFLAGS, ERRNO_FREE_FLAGS, ERRNO_FREE_UP_TO, find_compiler, machine_flags,
+                        portable_from_env, run_compiler)
 
 __all__ = ["BuildResult", "build", "shipped_c_dir", "SHIPPED_HEADERS", "resolve_cflags"]
 
@@ -122,7 +123,8 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
     flags = resolve_cflags(cflags)
     embedded = generated.metadata.get("target", "c99-f64") != "c99-f64"
     if cflags is None and not embedded and not portable and not portable_from_env():
-        flags += machine_flags(tc)
+        flags += [f for f in machine_flags(tc)
+                  if len(generated.c_source) <= ERRNO_FREE_UP_TO or f not in ERRNO_FREE_FLAGS]
     if {"rhs_batch", "jac_x_batch", "outputs_batch", "implicit_batch"} & set(generated.metadata.get("functions", ())) and not any(
             f.startswith("-DEOMC_BATCH_LANES") for f in flags):
         flags.append(f"-DEOMC_BATCH_LANES={machine_lanes()}")   # the lanes of this machine

@@ -21,6 +21,7 @@ from eomc.runtime.errors import CompileError, CompilerNotFoundError
 from .cache import discard
 
 __all__ = ["Toolchain", "find_compiler", "install_hint", "run_compiler", "DEFAULT_CFLAGS", "MACHINE_FLAGS", "GCC_MACHINE_FLAGS",
+           "ERRNO_FREE_UP_TO", "ERRNO_FREE_FLAGS",
            "machine_flags"]
 
 DEFAULT_CFLAGS = ("-O2", "-fPIC", "-std=c99")
@@ -53,6 +54,13 @@ MACHINE_FLAGS = ("-mavx2", "-ffp-contract=off")
 # hopper, walker2d, Go2 and G1 bit-equal; Go2's NAME_implicit 13-17 % and G1's ~8 % faster, the
 # rhs and jac_x equal; T2 (the gym four) equal within the copies' spread (ant -1.5 to -3.6 %).
 GCC_MACHINE_FLAGS = ("-fno-ipa-ra", "-fno-math-errno", "-mmemset-strategy=vector_loop:512:noalign,libcall:-1:noalign")
+# ... but not for a translation unit above ERRNO_FREE_UP_TO bytes of C: with sqrt, sin and cos pure,
+# gcc 12 works on the huge straight-line functions much longer (dm_control's quadruped.xml, 8 MB
+# of C, cc1 alone, core 0, session 36: 72 s user and 0.86 GB without the pair, 235 s and 1.39 GB
+# with it -- its default build went from ~97 s to ~250 s CPU when the pair landed; same bits
+# either way).  The sizes the pair was measured on (the gym four, Go2, G1) are all below 2.1 MB.
+ERRNO_FREE_UP_TO = 2_500_000
+ERRNO_FREE_FLAGS = GCC_MACHINE_FLAGS[1:]
 _MACHINE = {}  # (path, version) -> the machine flags this compiler accepts
 _CANDIDATES = ("cc", "gcc", "clang")
 _VERSIONS = {}  # (path, mtime) -> version text; a compiler is probed once per process
