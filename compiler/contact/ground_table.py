@@ -366,6 +366,11 @@ class GroundOut(sm.Function):
         """The straight-line twin's tangent (the loop has no derivative of its own)."""
         return dd.d(self._twin(), k)
 
+    def tangent_reads(self):
+        """The temporaries :meth:`forward` reads (compiler/passes/diff._needed_by): the twin's."""
+        key = (int(self.args[1]), int(self.args[2]))
+        return set(_TWINS[key].free_symbols) if key in _TWINS else set()
+
     def read_index(self):
         """-1 - k: below the pairs' table's indices (compiler/emit/generate._variants passes every
         call the same set; GroundCall.for_program reads the negative ones)."""

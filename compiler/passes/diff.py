@@ -201,15 +201,29 @@ class _Diff:
                 self.deriv[(target, k)] = sym
 
 
+def _reads(expr):
+    """The symbols ``expr``'s derivative reads: its free symbols and those of the nodes with a
+    forward rule of their own that reads other temporaries (``tangent_reads``: the ground points'
+    loop outputs, whose tangent is their straight-line twin's, compiler/contact/ground_table.py)."""
+    got = set(expr.free_symbols)
+    for node in expr.atoms(sm.Function):
+        more = getattr(node, "tangent_reads", None)
+        if more is not None:
+            got |= more()
+    return got
+
+
 def _needed_by(program, source):
-    """Temporaries the results of group ``source`` read, directly or through each other."""
+    """Temporaries the results of group ``source`` read, directly or through each other (or
+    through a node's forward rule: :func:`_reads`; without it the ground loop's twins were not
+    differentiated and their outputs' derivatives read 0 on the tangent path)."""
     need = set()
     for key, expr in program.results:
         if key[0] == source:
-            need |= expr.free_symbols
+            need |= _reads(expr)
     for target, expr in reversed(program.assignments):
         if target in need:
-            need |= expr.free_symbols
+            need |= _reads(expr)
     return need
 
 

@@ -130,3 +130,58 @@ def test_a_lowered_threshold_is_not_served_the_default_build(tmp_path):
 
     assert "eomc_ground(" not in build(gt.TABLE_FROM_DEFAULT)
     assert "eomc_ground(" in build(1)
+
+
+# a chain closed by a joint equality (MJCF <equality><joint>) over the floor: its jac_x is the
+# tangent path's (constrained trees never take the analytic kernel), differentiating the loop's
+# outputs through their straight-line twins
+COUPLED = """<mujoco model="coupled">
+  <compiler angle="radian"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <body name="upper" pos="0 0 0.03">
+      <joint name="shoulder" type="hinge" axis="0 1 0" damping="0.1"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.05" mass="1"/>
+      <body name="lower" pos="0.5 0 0">
+        <joint name="elbow" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0.4 0 0.1" size="0.04" mass="0.7"/>
+        <body name="tip" pos="0.4 0 0.1">
+          <joint name="wrist" type="hinge" axis="0 0 1"/>
+          <geom type="box" size="0.1 0.05 0.02" mass="0.3"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <equality><joint name="lin" joint1="elbow" joint2="shoulder" polycoef="0.1 0.5 0 0 0"/></equality>
+</mujoco>
+"""
+
+
+def test_a_constrained_trees_jac_x_differentiates_the_loops_points(tmp_path):
+    """The tangent path's jac_x (a tree closed by a constraint) read the loop's outputs' slopes
+    as 0: the forward pass differentiated only the temporaries the results' free symbols reach,
+    and a loop output's twin is not among its arguments (passes/diff._needed_by, fixed with
+    GroundOut.tangent_reads).  Against the straight-line build and central differences of rhs."""
+    (tmp_path / "coupled.xml").write_text(COUPLED)
+
+    def build(looped):
+        with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            mp.setattr(gt, "TABLE_FROM", 1)
+            mp.setattr(gt, "GROUND_TABLE", looped)
+            return eomc.compile(str(tmp_path / "coupled.xml"), functions=("rhs", "jac_x"),
+                                cache_dir=tmp_path / f"c{int(looped)}", progress=False)
+
+    loop, straight = build(True), build(False)
+    assert "eomc_ground(" in Path(loop.source_path).read_text()
+    assert "eomc_ground(" not in Path(straight.source_path).read_text()
+    rng = np.random.default_rng(3)
+    for _ in range(6):      # (these states press the floor: main's jac_x differed from the straight-line one's)
+        x = np.concatenate([rng.uniform(-0.3, 0.3, loop.nq), rng.uniform(-2, 2, loop.nx - loop.nq)])
+        J, Js = loop.jacobian(0.0, x), straight.jacobian(0.0, x)
+        scale = max(1.0, np.max(np.abs(Js)))
+        assert np.max(np.abs(J - Js)) < 1e-12 * scale
+        h = 1e-7
+        fd = np.column_stack([(loop.rhs(0.0, x + h * e) - loop.rhs(0.0, x - h * e)) / (2 * h)
+                              for e in np.eye(loop.nx)])
+        assert np.max(np.abs(J - fd)) < 1e-5 * scale
