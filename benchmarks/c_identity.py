@@ -197,6 +197,19 @@ def digest(text):
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+def _placeless(text, directory=""):
+    """``text`` with the places that differ between machines and checkouts named instead: this run's
+    temporary folder, the installed packages (example-robot-data's and gymnasium's files, quoted in
+    warnings and metadata) and this checkout.  Why: the metadata and warning digests of 11 robot
+    cases differed between two machines with the same C (session 36), the venv's path in them."""
+    import sysconfig
+    places = [(str(directory), "<tmp>")] if directory else []
+    places += [(sysconfig.get_paths()["purelib"], "<site-packages>"), (sys.prefix, "<prefix>"), (str(ROOT), "<repo>")]
+    for place, name in places:
+        text = text.replace(place, name)
+    return text
+
+
 def run_case(make, directory=""):
     from eomc.compiler.driver import generate
     from eomc.runtime.errors import EomcWarning
@@ -206,13 +219,10 @@ def run_case(make, directory=""):
             system, kw = make()
             _, generated = generate(system, use_cache=False, progress=False, **kw)
         except Exception as exc:   # a case that stops (or starts) building is a difference too
-            first = (str(exc).splitlines() or [""])[0].replace(str(directory), "<tmp>")
+            first = _placeless((str(exc).splitlines() or [""])[0], directory)
             return {"error": f"{type(exc).__name__}: {first}"}
-    metadata = json.dumps(generated.metadata, sort_keys=True, default=str)
-    if directory:     # a message naming a file written to this run's temporary folder
-        metadata = metadata.replace(str(directory), "<tmp>")
-    notes = sorted({str(w.message).replace(str(directory), "<tmp>") if directory else str(w.message)
-                    for w in caught if issubclass(w.category, EomcWarning)})
+    metadata = _placeless(json.dumps(generated.metadata, sort_keys=True, default=str), directory)
+    notes = sorted({_placeless(str(w.message), directory) for w in caught if issubclass(w.category, EomcWarning)})
     return {"c": digest(generated.c_source), "h": digest(generated.header), "cdef": digest(generated.cdef),
             "metadata": digest(metadata), "functions": sorted(generated.metadata.get("functions", [])),
             "warnings": [digest(n)[:16] for n in notes]}
