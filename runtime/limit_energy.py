@@ -85,25 +85,11 @@ def stored_along(r, K, E, push=0.0, hold=None):
     return out
 
 
-def _law(d, E, push, hold):
-    """g(d)² F(d) of stored()'s law at K = 1 (the integrand; d an array)."""
-    if hold:
-        G, w = hold
-        force = d + (G - 1.0) * w * np.tanh(d / w)
-    else:
-        force = d
-    if push:
-        s = E * push
-        force = (force + np.sqrt(force * force + s * s)) / 2
-    g = d / (d + E)
-    return g * g * force
-
-
 def _pieces(a, b, E, push, hold):
     """∫_a^b of the law at K = 1 per element (a, b arrays): 8 Gauss-Legendre nodes each."""
     a, b = a[:, None], b[:, None]
     nodes = (a + b) / 2 + (b - a) / 2 * _NODES
-    return np.sum((b - a) / 2 * _WEIGHTS * _law(nodes, E, push, hold), axis=1)
+    return np.sum((b - a) / 2 * _WEIGHTS * force_at_rest(nodes, E, push, hold), axis=1)
 
 
 @lru_cache(maxsize=64)
