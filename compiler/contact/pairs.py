@@ -22,7 +22,7 @@ centre, a capsule's segment, a box's solid) with the radii around them --
                    against the box and the segment against the box's 12 edges (exact for a
                    segment outside the box; :func:`_segment_box`), one contact point
 
-Box–box, cylinder (with a sphere, capsule or cylinder) and ellipsoid (with anything) pairs go through the
+Box–box, cylinder (with a sphere, capsule or cylinder) and ellipsoid (with a sphere or capsule) pairs go through the
 solid's signed distance instead (:func:`solid_contact`, :func:`signed_distance`, :func:`_box_box`:
 a box pair has 88 contact points: each box's corners, edges' midpoints and 4 points per face
 against the other; a cylinder pair 33; bounds in docs/contact.md).  For the others,
@@ -51,8 +51,7 @@ __all__ = ["PAIR_KINDS", "PairShape", "PairLoad", "PairValue", "pair_supported",
 # the kinds whose pairs are modelled (either order)
 PAIR_KINDS = {("sphere", "sphere"), ("sphere", "capsule"), ("capsule", "capsule"), ("sphere", "box"),
               ("capsule", "box"), ("box", "box"), ("sphere", "cylinder"), ("capsule", "cylinder"),
-              ("cylinder", "cylinder"), ("sphere", "ellipsoid"), ("box", "cylinder"), ("capsule", "ellipsoid"),
-              ("box", "ellipsoid"), ("cylinder", "ellipsoid"), ("ellipsoid", "ellipsoid")}
+              ("cylinder", "cylinder"), ("sphere", "ellipsoid"), ("box", "cylinder"), ("capsule", "ellipsoid")}
 # kinds met through the second shape's signed distance (:func:`signed_distance`) rather than two
 # cores' nearest points; the pair's contact points ("parts", :func:`pair_parts`) are points or
 # spheres of the first shape against the second's solid
@@ -482,7 +481,6 @@ AXIS_LINE = 1e6   # m: the half length of a cylinder's axis taken as its line (_
 ELLIPSOID_NEWTON = 10   # Newton steps for a point's nearest point on an ellipsoid (signed_distance)
 SEGMENT_NEWTON = 6      # Newton steps for a segment's point nearest an ellipsoid (_segment_ellipsoid)
 SEGMENT_EPS = 1e-9      # regularises the Newton steps' second derivative (a segment parallel to a flat side)
-SUPPORT_STEPS = 16      # an ellipsoid's support point against the other ellipsoid's normal, damped steps (_ellipsoid_points)
 SDF_EPS = 1e-15   # m: regularises the lengths inside a solid's signed distance (a normal of 0 where undefined)
 
 
@@ -519,9 +517,7 @@ def counted_kinds(kind_a, kind_b):
       picked, gated by its foot lying on that face) was not: its depth jumped where the pick or
       the gate switched with a corner already past the plane (10 % drift at rtol 1e-8 in
       session 17; the central difference across a jump, 1e6);
-    - an ellipsoid against a box, a cylinder or an ellipsoid: while apart and shallow, as far as
-      :func:`_ellipsoid_points`' support steps converge (measured in the conservation test).
-      Meshes are not modelled (PAIR_KINDS)."""
+    - ellipsoid–ellipsoid and others are not modelled (PAIR_KINDS)."""
     return True
 
 
@@ -642,76 +638,6 @@ def _segment_ellipsoid(ca, axis, h, ell, let):
     return [[let(ca[k] + x * axis[k]) for k in range(3)] for x in (s0, s)]
 
 
-def _support(ell, m, let):
-    """The point of the ellipsoid ``ell`` farthest along the direction ``m`` (world, any length):
-    y_j = a_j² m_j/√(Σ a_j² m_j²) in its frame (m_j = m·axis_j)."""
-    local = [let(_dot(m, ell["axes"][j])) for j in range(3)]
-    a2 = [_num(ell["size"][j] ** 2) for j in range(3)]
-    scale = let(sm.sqrt(sum((a2[j] * local[j] ** 2 for j in range(3)), sm.S.Zero) + SDF_EPS ** 2))
-    y = [let(a2[j] * local[j] / scale) for j in range(3)]
-    return [let(ell["centre"][k] + sum((y[j] * ell["axes"][j][k] for j in range(3)), sm.S.Zero)) for k in range(3)]
-
-
-def _ellipsoid_points(ell, other, let):
-    """[point]: the ellipsoid's support point x(m) along m = the direction to the other's centre,
-    and after ``SUPPORT_STEPS`` damped steps of m ← (m + m')/2, m' = -n_S(x(m)), n_S the other
-    ellipsoid's outward normal at x (:func:`signed_distance`).
-
-    Why: apart, the nearest points have the two outward normals opposite: the undamped step's
-    fixed point.  Near it the undamped step multiplies an error by about -R_E/(R_S + gap) (the
-    radii of curvature): it converges where this ellipsoid is the more curved and cycles where it
-    is the flatter (seen: a 2-cycle 1 mm off against a box's edge); halved, the factor
-    (1 - R_E/(R_S + gap))/2 lies in (-1, 1/2) for R_E < 3 (R_S + gap), and the pair runs the steps
-    from both ellipsoids (:func:`_ellipsoid_solid`), so one of them converges at least as 2^-k (the
-    direction after 16 steps to ~1e-5, the depth, stationary there, to ~1e-10 m).  Not every iterate
-    is a candidate: near the fixed point successive iterates tie in depth, and which one a rounding
-    picks moved the contact point by 1e-9 between two builds of the same scheme.  Every candidate is
-    a point of the ellipsoid: a step that has not converged meets late, never early."""
-    d = [let(other["centre"][k] - ell["centre"][k]) for k in range(3)]
-    dn = let(sm.sqrt(_dot(d, d) + SDF_EPS ** 2))
-    m = [let(v / dn) for v in d]
-    first = x = _support(ell, m, let)
-    for _ in range(SUPPORT_STEPS):
-        _, outward = signed_distance(x, other, let)
-        m = [let((m[k] - outward[k]) / 2) for k in range(3)]
-        x = _support(ell, m, let)
-    return [first, x]
-
-
-def _ellipsoid_features(ell, other, let):
-    """[point]: where an ellipsoid may first meet a box or a cylinder, exactly for each of the
-    other's features it may meet first, apart: a flat face (a box's 6, a cylinder's 2 caps) -- the
-    ellipsoid's support point along the face's inward normal; a box's edge (12) or corner -- the
-    edge as a segment against the ellipsoid (:func:`_segment_ellipsoid`, its ends the corners);
-    a cylinder's side -- the capsule inside it about its axis (radius min(R, h), whose side is the
-    cylinder's: its segment's points against the ellipsoid, :func:`_candidates`).  A cylinder's
-    rim circles are its rim points' (:func:`solid_contact`'s caller): late between them.
-    Returns [(point, radius, which)]: which = 0 a point of the ellipsoid, 1 of the other."""
-    out = []
-    axes, size = other["axes"], other["size"]
-    faces = range(3) if other["kind"] == "box" else (2,)
-    for j in faces:
-        for sign in (-1, 1):
-            out.append((_support(ell, [-sign * axes[j][k] for k in range(3)], let), 0.0, 0))
-    if other["kind"] == "box":
-        cb = other["centre"]
-        for j in range(3):
-            u, w = [i for i in range(3) if i != j]
-            for su in (-1, 1):
-                for sw in (-1, 1):
-                    centre = [let(cb[k] + su * _num(size[u]) * axes[u][k] + sw * _num(size[w]) * axes[w][k])
-                              for k in range(3)]
-                    ends = [[let(centre[k] + e * _num(size[j]) * axes[j][k]) for k in range(3)] for e in (-1, 1)]
-                    out += [(x, 0.0, 1) for x in ends + _segment_ellipsoid(centre, axes[j], size[j], ell, let)]
-    else:
-        rho = _smin(size[0], size[1])
-        inner = {"kind": "capsule", "centre": other["centre"], "axes": axes, "size": [rho, size[1] - rho]}
-        out += [(x, r, 1) for x, r in _candidates(inner, ell, let)]
-        from .geometry import CYLINDER_RIM
-        out += [(_rim(other, i), 0.0, 1) for i in range(2 * CYLINDER_RIM)]
-    return out
-
-
 def _box_sd(q, box, let):
     """(sd, outward normal (world)) of a point at ``q`` in the box's frame (:func:`signed_distance`)."""
     e = [let(sm.Abs(q[j]) - _num(box["size"][j])) for j in range(3)]
@@ -823,72 +749,31 @@ def solid_contact(a, b, part, margin=0.0, let=lambda e: e):
             rho = _smin(a["size"][0], a["size"][1])
             point = {"kind": "capsule", "centre": a["centre"], "axes": a["axes"], "size": [rho, a["size"][1] - rho]}
             cands = _candidates(point, solid, let)
-    elif "ellipsoid" in (a["kind"], b["kind"]) and a["kind"] in SOLIDS and b["kind"] in SOLIDS:
-        return _ellipsoid_solid(a, b, margin, let)
     else:
         swap = a["kind"] in SOLIDS
         point, solid = (b, a) if swap else (a, b)
         if point["kind"] in SOLIDS:
             raise ValueError(f"no contact between a {a['kind']} and a {b['kind']}")
         cands = _candidates(point, solid, let)
-    options = [_against(x, radius, solid, margin, let) for x, radius in cands]
+    options = []                                   # (p, n from the point's shape into the solid, δ)
+    for x, radius in cands:
+        sd, outward = signed_distance(x, solid, let)
+        n = [let(-v) for v in outward]
+        depth = let(_num(radius) + _num(margin) - sd)
+        options.append(([let(x[k] + (_num(radius) - depth / 2) * n[k]) for k in range(3)], n, depth))
     if point["kind"] == "capsule" and solid["kind"] == "cylinder":
         rims = [_rim_capsule(y, point, margin, let, with_t=True) for y in _rim_points(solid, RIM_POINTS)]
         options += [o[:3] for o in rims]
         for side in range(2):          # each rim circle's exact nearest point: RIM_NEWTON steps
             options.append(_rim_nearest(point, solid, 2 * side - 1, rims[side * RIM_POINTS:(side + 1) * RIM_POINTS],
                                         margin, let))
-    p, n, depth = _deepest(options, let)
-    return p, [let(-x) for x in n] if swap else n, depth
-
-
-def _against(x, radius, solid, margin, let):
-    """(p, n from the point's shape into the solid, δ) of a sphere of ``radius`` at ``x`` (a point:
-    0) against a solid's signed distance."""
-    sd, outward = signed_distance(x, solid, let)
-    n = [let(-v) for v in outward]
-    depth = let(_num(radius) + _num(margin) - sd)
-    return [let(x[k] + (_num(radius) - depth / 2) * n[k]) for k in range(3)], n, depth
-
-
-def _deepest(options, let):
-    """The deepest of [(p, n, δ)], chosen without branches: step(δ_k - δ_best)."""
     p, n, depth = options[0]
-    for q, m, dep in options[1:]:
+    for q, m, dep in options[1:]:                 # the deepest: step(δ_k - δ_best)
         take = let(step(dep - depth))
         p = [let(p[k] + take * (q[k] - p[k])) for k in range(3)]
         n = [let(n[k] + take * (m[k] - n[k])) for k in range(3)]
         depth = let(depth + take * (dep - depth))
-    return p, n, depth
-
-
-def _ellipsoid_solid(a, b, margin, let):
-    """(p, n from A to B, δ) of an ellipsoid against a box, a cylinder or an ellipsoid (either
-    order): the deepest of the candidates of :func:`_ellipsoid_features` (a box or a cylinder:
-    exact apart but across a cylinder's rim) or :func:`_ellipsoid_points` from both ellipsoids,
-    each a point (or a ball about a point) of one shape against the other's signed distance.
-    One contact point: an ellipsoid is strictly convex, so it touches a flat face at one point,
-    not along a patch.  Every candidate lies in its shape: the depth is never overstated
-    (measured against mj_geomDistance in tests/compiler/contact/test_solid_pairs.py).
-
-    p is where the cores' pairs put it, r_A - δ/2 from A's core along n, for B's candidates too
-    (x_B + (margin - δ/2)·n_BA, n_BA the normal from B's point into A): two candidates that meet
-    at the same nearest points then give the same p (they differed by the margin)."""
-    ell, other = (a, b) if a["kind"] == "ellipsoid" else (b, a)
-    if other["kind"] == "ellipsoid":
-        cands = [(x, 0.0, 0) for x in _ellipsoid_points(ell, other, let)]
-        cands += [(x, 0.0, 1) for x in _ellipsoid_points(other, ell, let)]
-    else:
-        cands = _ellipsoid_features(ell, other, let)
-    options = []
-    for x, radius, which in cands:
-        on_a = (which == 0) == (ell is a)          # the candidate is a point (ball) of A
-        if on_a:
-            options.append(_against(x, radius, b, margin, let))
-        else:
-            p, n, depth = _against(x, radius, a, margin, let)          # n from B's point into A
-            options.append(([let(p[k] + _num(margin) * n[k]) for k in range(3)], [let(-v) for v in n], depth))
-    return _deepest(options, let)
+    return p, [let(-x) for x in n] if swap else n, depth
 
 
 # A box's sample points (:func:`_box_point`), in units of its half sizes: its 8 corners (as
