@@ -22,7 +22,7 @@ centre, a capsule's segment, a box's solid) with the radii around them --
                    against the box and the segment against the box's 12 edges (exact for a
                    segment outside the box; :func:`_segment_box`), one contact point
 
-Box–box, cylinder (with a sphere, capsule or cylinder) and ellipsoid (with a sphere or capsule) pairs go through the
+Box–box, cylinder (with a sphere, capsule or cylinder) and ellipsoid (with a sphere, capsule or ellipsoid) pairs go through the
 solid's signed distance instead (:func:`solid_contact`, :func:`signed_distance`, :func:`_box_box`:
 a box pair has 88 contact points: each box's corners, edges' midpoints and 4 points per face
 against the other; a cylinder pair 33; bounds in docs/contact.md).  For the others,
@@ -51,7 +51,8 @@ __all__ = ["PAIR_KINDS", "PairShape", "PairLoad", "PairValue", "pair_supported",
 # the kinds whose pairs are modelled (either order)
 PAIR_KINDS = {("sphere", "sphere"), ("sphere", "capsule"), ("capsule", "capsule"), ("sphere", "box"),
               ("capsule", "box"), ("box", "box"), ("sphere", "cylinder"), ("capsule", "cylinder"),
-              ("cylinder", "cylinder"), ("sphere", "ellipsoid"), ("box", "cylinder"), ("capsule", "ellipsoid")}
+              ("cylinder", "cylinder"), ("sphere", "ellipsoid"), ("box", "cylinder"), ("capsule", "ellipsoid"),
+              ("ellipsoid", "ellipsoid")}
 # kinds met through the second shape's signed distance (:func:`signed_distance`) rather than two
 # cores' nearest points; the pair's contact points ("parts", :func:`pair_parts`) are points or
 # spheres of the first shape against the second's solid
@@ -481,6 +482,7 @@ AXIS_LINE = 1e6   # m: the half length of a cylinder's axis taken as its line (_
 ELLIPSOID_NEWTON = 10   # Newton steps for a point's nearest point on an ellipsoid (signed_distance)
 SEGMENT_NEWTON = 6      # Newton steps for a segment's point nearest an ellipsoid (_segment_ellipsoid)
 SEGMENT_EPS = 1e-9      # regularises the Newton steps' second derivative (a segment parallel to a flat side)
+AXIS_NEWTON = 8         # Newton steps on the sphere for two ellipsoids' separating direction (_ellipsoid_axis)
 SDF_EPS = 1e-15   # m: regularises the lengths inside a solid's signed distance (a normal of 0 where undefined)
 
 
@@ -517,7 +519,10 @@ def counted_kinds(kind_a, kind_b):
       picked, gated by its foot lying on that face) was not: its depth jumped where the pick or
       the gate switched with a corner already past the plane (10 % drift at rtol 1e-8 in
       session 17; the central difference across a jump, 1e6);
-    - ellipsoid–ellipsoid and others are not modelled (PAIR_KINDS)."""
+    - ellipsoid–ellipsoid: yes, apart and shallow, as far as :func:`_ellipsoid_axis`' Newton
+      steps converge (A's point is then the stationary nearest point; pressed in deeper, B's
+      normal at the point nearest it turns off the axis); box– and cylinder–ellipsoid are not
+      modelled (PAIR_KINDS)."""
     return True
 
 
@@ -638,6 +643,74 @@ def _segment_ellipsoid(ca, axis, h, ell, let):
     return [[let(ca[k] + x * axis[k]) for k in range(3)] for x in (s0, s)]
 
 
+def _ellipsoid_matrix(ell):
+    """A = R diag(a²) Rᵀ of an ellipsoid (world): its support function is h(m) = √(mᵀ A m)."""
+    axes, a2 = ell["axes"], [_num(ell["size"][j] ** 2) for j in range(3)]
+    return [[sum((a2[j] * axes[j][r] * axes[j][c] for j in range(3)), sm.S.Zero) for c in range(3)] for r in range(3)]
+
+
+def _ellipsoid_axis(a, b, let):
+    """x_A: A's support point along the direction m that maximises the gap
+    g(m) = m·(c_B - c_A) - h_A(m) - h_B(m) on the unit sphere (h the support functions): their
+    nearest point to B apart, its deepest point along m pressed in (the separating-axis theorem:
+    g(m) is the gap along m, its maximum the signed distance, and at the maximum the two support
+    points are the nearest points).
+
+    Why this problem: g is smooth and its Hessian ∇²g = -∇²h_A - ∇²h_B is analytic
+    (∇²h = (A - A m mᵀ A/h²)/h), so ``AXIS_NEWTON`` Riemannian Newton steps converge
+    quadratically, from m = the direction between the centres; iterating one ellipsoid's support
+    point against the other's normal (session 39's first try) cycles or crawls where each
+    ellipsoid is the flatter in one principal direction.  The step solves
+    (P H P - λ P + m mᵀ) v = -P ∇g (P = I - m mᵀ, λ = m·∇g = g(m): the Riemannian Hessian on the
+    sphere, made regular along m) by Cramer's rule; m ← (m + v)/|m + v|.  It is negative on the
+    tangent plane apart (λ > 0) and pressed in less than the ellipsoids' radii of curvature (P H P
+    is of their order, λ the depth); a first version with max(λ, 0) for λ converged only linearly
+    pressed in, and its derivative then depended on the side of that kink a rounding fell.  Its
+    caller measures the point against the other ellipsoid's exact signed distance, so an
+    unconverged m meets late, never early.  Converged in 4 steps at the narrow routine test's poses."""
+    A, B = _ellipsoid_matrix(a), _ellipsoid_matrix(b)
+    d = [let(b["centre"][k] - a["centre"][k]) for k in range(3)]
+    dn = let(sm.sqrt(_dot(d, d) + SDF_EPS ** 2))
+    m = [let(v / dn) for v in d]
+
+    def support(E, m):
+        Em = [let(sum((E[r][c] * m[c] for c in range(3)), sm.S.Zero)) for r in range(3)]
+        h = let(sm.sqrt(_dot(m, Em) + SDF_EPS ** 2))
+        return Em, h
+
+    for _ in range(AXIS_NEWTON):
+        (Am, ha), (Bm, hb) = support(A, m), support(B, m)
+        grad = [let(d[k] - Am[k] / ha - Bm[k] / hb) for k in range(3)]
+        lam = let(_dot(m, grad))
+        H = [[let(-(A[r][c] - Am[r] * Am[c] / ha ** 2) / ha - (B[r][c] - Bm[r] * Bm[c] / hb ** 2) / hb)
+              for c in range(3)] for r in range(3)]
+        P = [[(1 if r == c else 0) - m[r] * m[c] for c in range(3)] for r in range(3)]
+        HP = [[let(sum((H[r][k] * P[k][c] for k in range(3)), sm.S.Zero)) for c in range(3)] for r in range(3)]
+        M = [[let(sum((P[r][k] * HP[k][c] for k in range(3)), sm.S.Zero) - lam * P[r][c] + m[r] * m[c])
+              for c in range(3)] for r in range(3)]
+        rhs = [let(-sum((P[r][k] * grad[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
+        v = _solve3(M, rhs, let)
+        w = [let(m[k] + v[k]) for k in range(3)]
+        wn = let(sm.sqrt(_dot(w, w) + SDF_EPS ** 2))
+        m = [let(x / wn) for x in w]
+    Am, ha = support(A, m)
+    return [let(a["centre"][k] + Am[k] / ha) for k in range(3)]
+
+
+def _solve3(M, r, let):
+    """x with M x = r (3×3) by Cramer's rule, branch-free (M is kept regular by its caller)."""
+    def det(c0, c1, c2):
+        return (c0[0] * (c1[1] * c2[2] - c1[2] * c2[1]) - c1[0] * (c0[1] * c2[2] - c0[2] * c2[1])
+                + c2[0] * (c0[1] * c1[2] - c0[2] * c1[1]))
+    cols = [[M[k][c] for k in range(3)] for c in range(3)]
+    inv = let(1 / det(*cols))
+    out = []
+    for j in range(3):
+        replaced = [r if c == j else cols[c] for c in range(3)]
+        out.append(let(det(*replaced) * inv))
+    return out
+
+
 def _box_sd(q, box, let):
     """(sd, outward normal (world)) of a point at ``q`` in the box's frame (:func:`signed_distance`)."""
     e = [let(sm.Abs(q[j]) - _num(box["size"][j])) for j in range(3)]
@@ -749,18 +822,15 @@ def solid_contact(a, b, part, margin=0.0, let=lambda e: e):
             rho = _smin(a["size"][0], a["size"][1])
             point = {"kind": "capsule", "centre": a["centre"], "axes": a["axes"], "size": [rho, a["size"][1] - rho]}
             cands = _candidates(point, solid, let)
+    elif a["kind"] == b["kind"] == "ellipsoid":
+        return _ellipsoid_pair(a, b, margin, let)
     else:
         swap = a["kind"] in SOLIDS
         point, solid = (b, a) if swap else (a, b)
         if point["kind"] in SOLIDS:
             raise ValueError(f"no contact between a {a['kind']} and a {b['kind']}")
         cands = _candidates(point, solid, let)
-    options = []                                   # (p, n from the point's shape into the solid, δ)
-    for x, radius in cands:
-        sd, outward = signed_distance(x, solid, let)
-        n = [let(-v) for v in outward]
-        depth = let(_num(radius) + _num(margin) - sd)
-        options.append(([let(x[k] + (_num(radius) - depth / 2) * n[k]) for k in range(3)], n, depth))
+    options = [_against(x, radius, solid, margin, let) for x, radius in cands]   # n: the point's shape into the solid
     if point["kind"] == "capsule" and solid["kind"] == "cylinder":
         rims = [_rim_capsule(y, point, margin, let, with_t=True) for y in _rim_points(solid, RIM_POINTS)]
         options += [o[:3] for o in rims]
@@ -774,6 +844,26 @@ def solid_contact(a, b, part, margin=0.0, let=lambda e: e):
         n = [let(n[k] + take * (m[k] - n[k])) for k in range(3)]
         depth = let(depth + take * (dep - depth))
     return p, [let(-x) for x in n] if swap else n, depth
+
+
+def _ellipsoid_pair(a, b, margin, let):
+    """(p, n from A to B, δ) of two ellipsoids: A's point x_A of :func:`_ellipsoid_axis` against
+    B's signed distance (a point of A: the depth is never overstated; apart it is the nearest
+    point, so exact).  B's point against A's is not a second candidate: apart the two tie in depth
+    exactly, so which one a rounding picks would decide the point's derivative (they agree on the
+    rotations, not off them: the narrow routine and the inlined scheme differed by O(1) in the
+    tangents of tests/compiler/contact/test_narrow_routines.py)."""
+    xa = _ellipsoid_axis(a, b, let)
+    return _against(xa, 0.0, b, margin, let)
+
+
+def _against(x, radius, solid, margin, let):
+    """(p, n from the point's shape into the solid, δ) of a sphere of ``radius`` at ``x`` (a point:
+    0) against a solid's signed distance."""
+    sd, outward = signed_distance(x, solid, let)
+    n = [let(-v) for v in outward]
+    depth = let(_num(radius) + _num(margin) - sd)
+    return [let(x[k] + (_num(radius) - depth / 2) * n[k]) for k in range(3)], n, depth
 
 
 # A box's sample points (:func:`_box_point`), in units of its half sizes: its 8 corners (as

@@ -25,7 +25,8 @@ SIZES = {"sphere": (0.05, 0, 0), "capsule": (0.03, 0.08, 0), "box": (0.06, 0.04,
 # swapped), but the cylinder's with a capsule, box or cylinder: their 25-65 points take 20-70 s to
 # generate twice here; tests/compiler/contact/test_narrow.py compiles box–cylinder and compares
 ORDERED = [("sphere", "sphere"), ("capsule", "sphere"), ("capsule", "capsule"), ("box", "sphere"), ("capsule", "box"),
-           ("box", "box"), ("sphere", "cylinder"), ("ellipsoid", "sphere"), ("capsule", "ellipsoid")]
+           ("box", "box"), ("sphere", "cylinder"), ("ellipsoid", "sphere"), ("capsule", "ellipsoid"),
+           ("ellipsoid", "ellipsoid")]
 
 
 class _Py(PythonCodePrinter):
