@@ -26,7 +26,7 @@ SIZES = {"sphere": (0.05, 0, 0), "capsule": (0.03, 0.08, 0), "box": (0.06, 0.04,
 # generate twice here; tests/compiler/contact/test_narrow.py compiles box–cylinder and compares
 ORDERED = [("sphere", "sphere"), ("capsule", "sphere"), ("capsule", "capsule"), ("box", "sphere"), ("capsule", "box"),
            ("box", "box"), ("sphere", "cylinder"), ("ellipsoid", "sphere"), ("capsule", "ellipsoid"),
-           ("ellipsoid", "ellipsoid")]
+           ("ellipsoid", "ellipsoid"), ("box", "ellipsoid")]
 
 
 class _Py(PythonCodePrinter):

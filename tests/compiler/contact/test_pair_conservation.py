@@ -43,6 +43,7 @@ COUNTED = {
     "sphere-ellipsoid": (("sphere", "0.05", 0.05), ("ellipsoid", "0.15 0.1 0.07", 0.0)),
     "capsule-ellipsoid": (("capsule", "0.05 0.2", 0.05), ("ellipsoid", "0.15 0.1 0.07", 0.0)),
     "ellipsoid-ellipsoid": (("ellipsoid", "0.06 0.1 0.08", 0.0), ("ellipsoid", "0.15 0.1 0.07", 0.0)),
+    "box-ellipsoid": (("box", "0.1 0.08 0.06", 0.0), ("ellipsoid", "0.15 0.1 0.07", 0.0)),
     "box-cylinder": (("box", "0.1 0.08 0.06", 0.0), ("cylinder", "0.15 0.1", 0.0)),
     "capsule-cylinder": (("capsule", "0.05 0.2", 0.05), ("cylinder", "0.15 0.1", 0.0)),
     "cylinder-cylinder": (("cylinder", "0.08 0.12", 0.0), ("cylinder", "0.15 0.1", 0.0)),

@@ -34,10 +34,11 @@ def _placed(m, d, g):
             "axes": [[float(x) for x in R[:, k]] for k in range(3)], "size": [float(x) for x in m.geom_size[g]]}
 
 
-def _poses(m, d, seed, count=40, spread=0.15):
+def _poses(m, d, seed, count=40, spread=0.15, bodies=None):
+    """Random poses of the first ``bodies`` free bodies (all: None), the rest where they are."""
     rng = np.random.default_rng(seed)
     for _ in range(count):
-        for j in range(m.njnt):
+        for j in range(m.njnt if bodies is None else bodies):
             a = int(m.jnt_qposadr[j])
             d.qpos[a:a + 3] = rng.uniform(-spread, spread, 3)
             q = rng.normal(size=4)
@@ -388,6 +389,7 @@ def test_capsule_against_an_ellipsoid_matches_mj_geom_distance_and_a_search(g1, 
 XML_TWO_ELLIPSOIDS = """<mujoco><option gravity="0 0 0"/><worldbody>
 <body name="G"><freejoint/><geom name="egg" type="ellipsoid" size="0.12 0.07 0.05"/></body>
 <body name="H"><freejoint/><geom name="bean" type="ellipsoid" size="0.05 0.09 0.06"/></body>
+<body name="C"><freejoint/><geom name="cube" type="box" size="0.1 0.08 0.06"/></body>
 </worldbody></mujoco>"""
 
 
@@ -402,12 +404,34 @@ def test_two_ellipsoids_are_mujocos_apart_and_never_early(g1, g2):
     d = mujoco.MjData(m)
     a, b = _ids(m, g1, g2)
     apart = pressed = 0
-    for _ in _poses(m, d, 11, count=30, spread=0.12):
+    for _ in _poses(m, d, 11, count=30, spread=0.12, bodies=2):
         dist, fromto = _mj(m, d, a, b)
         mine, n, _ = _deepest(_placed(m, d, a), _placed(m, d, b))
         if dist > 1e-6:
             apart += _mujocos_apart(mine, n, dist, fromto)
         elif dist < -1e-6:
             assert mine >= dist - 1e-6
+            pressed += 1
+    assert apart >= 10 and pressed >= 10
+
+
+@pytest.mark.parametrize("g1, g2", [("cube", "egg"), ("egg", "cube")])
+def test_a_box_and_an_ellipsoid_are_mujocos_apart_and_pressed(g1, g2):
+    """Box–ellipsoid by the separating axis (pairs._box_ellipsoid: the faces' normals, each edge's
+    arc of directions by Newton, each corner in its cone), against mj_geomDistance at random poses:
+    apart, its distance (1e-9; measured 1.4e-11) and normal (2e-5); pressed, its penetration --
+    the separating axis gives the least translation that parts the two -- to its solver's 1e-6
+    (measured 8.9e-7 deeper at most, never shallower by more than 2e-10)."""
+    m = mujoco.MjModel.from_xml_string(XML_TWO_ELLIPSOIDS)
+    d = mujoco.MjData(m)
+    a, b = _ids(m, g1, g2)
+    apart = pressed = 0
+    for _ in _poses(m, d, 11, count=40, spread=0.12):
+        dist, fromto = _mj(m, d, a, b)
+        mine, n, _ = _deepest(_placed(m, d, a), _placed(m, d, b))
+        if dist > 1e-6:
+            apart += _mujocos_apart(mine, n, dist, fromto)
+        elif dist < -1e-6:
+            assert mine == pytest.approx(dist, abs=1e-6)
             pressed += 1
     assert apart >= 10 and pressed >= 10
