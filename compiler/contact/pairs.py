@@ -25,7 +25,9 @@ centre, a capsule's segment, a box's solid) with the radii around them --
 Box–box, cylinder (with a sphere, capsule or cylinder) and ellipsoid (with a sphere, capsule or ellipsoid) pairs go through the
 solid's signed distance instead (:func:`solid_contact`, :func:`signed_distance`, :func:`_box_box`:
 a box pair has 88 contact points: each box's corners, edges' midpoints and 4 points per face
-against the other; a cylinder pair 33; bounds in docs/contact.md).  For the others,
+against the other; a cylinder pair 33; bounds in docs/contact.md); box–ellipsoid through the
+separating axis (:func:`_box_ellipsoid`), ellipsoid–ellipsoid through Newton on the separating
+direction (:func:`_ellipsoid_axis`).  For the others,
 then with d the vector between those points (A to B), |d| = sqrt(d·d + EPS²):
 
     n = d/|d|,   δ = r_A + r_B + margin - |d|,   p = x_A + (r_A - δ/2) n
@@ -524,8 +526,10 @@ def counted_kinds(kind_a, kind_b):
       session 17; the central difference across a jump, 1e6);
     - ellipsoid–ellipsoid: yes, apart and shallow, as far as :func:`_ellipsoid_axis`' Newton
       steps converge (A's point is then the stationary nearest point; pressed in deeper, B's
-      normal at the point nearest it turns off the axis); box– and cylinder–ellipsoid are not
-      modelled (PAIR_KINDS)."""
+      normal at the point nearest it turns off the axis);
+    - box–ellipsoid: yes, apart and pressed in (:func:`_box_ellipsoid`: each candidate is the
+      separating axis' gap where it is stationary, so its gradient is the force: the envelope
+      theorem); cylinder–ellipsoid is not modelled (PAIR_KINDS)."""
     return True
 
 

@@ -509,7 +509,7 @@ def _with_pairs(model, m, built):
     if skipped:
         text = "; ".join(f"{n} {kinds} pair(s) (e.g. {example})" for kinds, (n, example) in sorted(skipped.items()))
         warnings.warn(f"{Path(model.path).name}: no contact for {text}: they pass through each other (eomc "
-                      f"models pairs of spheres, capsules, boxes and cylinders, and an ellipsoid with a sphere, a capsule or an ellipsoid; "
+                      f"models pairs of spheres, capsules, boxes and cylinders, and an ellipsoid with anything but a cylinder; "
                       f"no meshes)",
                       EomcWarning, stacklevel=4)
     if not found:

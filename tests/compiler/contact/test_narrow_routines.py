@@ -42,7 +42,7 @@ def _function(prog, inputs, group):
     keys = sorted(values, key=lambda k: k[1])
     lines.append("    return [" + ", ".join(pr.doprint(values[k]) for k in keys) + "]")
     text = f"def f({', '.join(s.name for s in inputs)}):\n" + "\n".join(lines)
-    space = {"math": math, "sqrt": math.sqrt, "Abs": abs, "copysign": math.copysign}
+    space = {"math": math, "sqrt": math.sqrt, "Abs": abs, "copysign": math.copysign, "cos": math.cos, "sin": math.sin}
     exec(compile(text, "<narrow>", "exec"), space)
     return space["f"]
 
