@@ -680,17 +680,32 @@ def _ellipsoid_axis(a, b, let):
     dn = let(sm.sqrt(_dot(d, d) + SDF_EPS ** 2))
     m = [let(v / dn) for v in d]
 
-    def support(E, m):
-        Em = [let(sum((E[r][c] * m[c] for c in range(3)), sm.S.Zero)) for r in range(3)]
-        h = let(sm.sqrt(_dot(m, Em) + SDF_EPS ** 2))
-        return Em, h
-
-    for _ in range(AXIS_NEWTON):
-        (Am, ha), (Bm, hb) = support(A, m), support(B, m)
+    def gradient_hessian(m):
+        (Am, ha), (Bm, hb) = _support_fn(A, m, let), _support_fn(B, m, let)
         grad = [let(d[k] - Am[k] / ha - Bm[k] / hb) for k in range(3)]
-        lam = let(_dot(m, grad))
         H = [[let(-(A[r][c] - Am[r] * Am[c] / ha ** 2) / ha - (B[r][c] - Bm[r] * Bm[c] / hb ** 2) / hb)
               for c in range(3)] for r in range(3)]
+        return grad, H
+    m = _newton_on_sphere(m, gradient_hessian, AXIS_NEWTON, let)
+    Am, ha = _support_fn(A, m, let)
+    return [let(a["centre"][k] + Am[k] / ha) for k in range(3)]
+
+
+def _support_fn(E, m, let):
+    """(E m, h_E(m) = √(mᵀ E m)): an ellipsoid's support function at m (E its matrix,
+    :func:`_ellipsoid_matrix`) and the vector its gradient is E m/h."""
+    Em = [let(sum((E[r][c] * m[c] for c in range(3)), sm.S.Zero)) for r in range(3)]
+    return Em, let(sm.sqrt(_dot(m, Em) + SDF_EPS ** 2))
+
+
+def _newton_on_sphere(m, gradient_hessian, steps, let):
+    """m after ``steps`` Riemannian Newton steps towards a maximum of a function g on the unit
+    sphere, given its gradient and Hessian in space at m (``gradient_hessian(m)``): the step solves
+    (P H P - λ P + m mᵀ) v = -P ∇g (P = I - m mᵀ, λ = m·∇g: the Riemannian Hessian, made regular
+    along m) by Cramer's rule; m ← (m + v)/|m + v|."""
+    for _ in range(steps):
+        grad, H = gradient_hessian(m)
+        lam = let(_dot(m, grad))
         P = [[(1 if r == c else 0) - m[r] * m[c] for c in range(3)] for r in range(3)]
         HP = [[let(sum((H[r][k] * P[k][c] for k in range(3)), sm.S.Zero)) for c in range(3)] for r in range(3)]
         M = [[let(sum((P[r][k] * HP[k][c] for k in range(3)), sm.S.Zero) - lam * P[r][c] + m[r] * m[c])
@@ -700,8 +715,7 @@ def _ellipsoid_axis(a, b, let):
         w = [let(m[k] + v[k]) for k in range(3)]
         wn = let(sm.sqrt(_dot(w, w) + SDF_EPS ** 2))
         m = [let(x / wn) for x in w]
-    Am, ha = support(A, m)
-    return [let(a["centre"][k] + Am[k] / ha) for k in range(3)]
+    return m
 
 
 def _box_ellipsoid(box, ell, let):
@@ -755,27 +769,10 @@ def _box_ellipsoid(box, ell, let):
                 al, be = let(su * ud[iu] - hs[iu]), let(sw * ud[iw] - hs[iw])
                 P, R, S = uAu[iu][iu], let(su * sw * uAu[iu][iw]), uAu[iw][iw]
 
-                def gap(c, s_):
-                    return al * c + be * s_ - sm.sqrt(P * c * c + 2 * R * c * s_ + S * s_ * s_ + SDF_EPS ** 2)
-                theta, best = sm.S.Zero, let(gap(1, 0))
-                for k in range(1, ARC_SAMPLES):
-                    t = math.pi / 2 * k / (ARC_SAMPLES - 1)
-                    val = let(gap(_num(_tidy(math.cos(t))), _num(_tidy(math.sin(t)))))
-                    take = let(step(val - best))
-                    theta, best = let(theta + take * (_num(t) - theta)), let(best + take * (val - best))
-                for _ in range(ARC_NEWTON):
-                    c, s_ = let(sm.cos(theta)), let(sm.sin(theta))
-                    Q = let(P * c * c + 2 * R * c * s_ + S * s_ * s_ + SDF_EPS ** 2)
-                    h = let(sm.sqrt(Q))
-                    dQ = let(2 * (S - P) * s_ * c + 2 * R * (c * c - s_ * s_))
-                    ddQ = let(2 * (S - P) * (c * c - s_ * s_) - 8 * R * s_ * c)
-                    g1 = let(-al * s_ + be * c - dQ / (2 * h))
-                    g2 = let(-al * c - be * s_ - ddQ / (2 * h) + dQ * dQ / (4 * h * Q))
-                    theta = let(_clamp(theta + g1 / (sm.Abs(g2) + SDF_EPS), 0, _num(math.pi / 2)))
-                c, s_ = let(sm.cos(theta)), let(sm.sin(theta))
+                c, s_, h = _arc_max(al, be, P, R, S, [math.pi / 2 * k / (ARC_SAMPLES - 1) for k in range(ARC_SAMPLES)],
+                                    (0, math.pi / 2), let)
                 coef = [None] * 3
                 coef[iu], coef[iw] = let(su * c), let(sw * s_)
-                h = let(sm.sqrt(P * c * c + 2 * R * c * s_ + S * s_ * s_ + SDF_EPS ** 2))
                 out.append((let(al * c + be * s_ - h), direction(coef), point(coef, h)))
     for i in range(8):                                   # the corners, while in their cones
         signs = ((i >> 2) & 1, (i >> 1) & 1, i & 1)
@@ -786,6 +783,34 @@ def _box_ellipsoid(box, ell, let):
         inside = sm.Mul(*[step((2 * sg - 1) * _dot(m, u[j])) for j, sg in enumerate(signs)])
         out.append((let(sd - (1 - inside) * UNREACHED), m, [let(v[k] + sd * m[k]) for k in range(3)]))
     return out
+
+
+def _arc_max(al, be, P, R, S, samples, clamp, let):
+    """(cos θ, sin θ, h) at the largest of g(θ) = α cos θ + β sin θ - √Q(θ) on an arc of directions
+    m = cos θ a + sin θ b (Q = mᵀ A m = P cos² + 2R cos sin + S sin²: an ellipsoid's support
+    function squared): ``ARC_NEWTON`` Newton steps from the best of the angles ``samples``,
+    clamped to ``clamp`` (lo, hi) after each (None: a whole circle).  A box's edge's quarter arc
+    (:func:`_box_ellipsoid`)."""
+    def gap(c, s_):
+        return al * c + be * s_ - sm.sqrt(P * c * c + 2 * R * c * s_ + S * s_ * s_ + SDF_EPS ** 2)
+    theta, best = _num(samples[0]), let(gap(_num(_tidy(math.cos(samples[0]))), _num(_tidy(math.sin(samples[0])))))
+    for t in samples[1:]:
+        val = let(gap(_num(_tidy(math.cos(t))), _num(_tidy(math.sin(t)))))
+        take = let(step(val - best))
+        theta, best = let(theta + take * (_num(t) - theta)), let(best + take * (val - best))
+    for _ in range(ARC_NEWTON):
+        c, s_ = let(sm.cos(theta)), let(sm.sin(theta))
+        Q = let(P * c * c + 2 * R * c * s_ + S * s_ * s_ + SDF_EPS ** 2)
+        h = let(sm.sqrt(Q))
+        dQ = let(2 * (S - P) * s_ * c + 2 * R * (c * c - s_ * s_))
+        ddQ = let(2 * (S - P) * (c * c - s_ * s_) - 8 * R * s_ * c)
+        g1 = let(-al * s_ + be * c - dQ / (2 * h))
+        g2 = let(-al * c - be * s_ - ddQ / (2 * h) + dQ * dQ / (4 * h * Q))
+        theta = let(theta + g1 / (sm.Abs(g2) + SDF_EPS))
+        if clamp is not None:
+            theta = let(_clamp(theta, _num(clamp[0]), _num(clamp[1])))
+    c, s_ = let(sm.cos(theta)), let(sm.sin(theta))
+    return c, s_, let(sm.sqrt(P * c * c + 2 * R * c * s_ + S * s_ * s_ + SDF_EPS ** 2))
 
 
 def _box_ellipsoid_pair(a, b, margin, let):
