@@ -789,8 +789,7 @@ def _arc_max(al, be, P, R, S, samples, clamp, let):
     """(cos θ, sin θ, h) at the largest of g(θ) = α cos θ + β sin θ - √Q(θ) on an arc of directions
     m = cos θ a + sin θ b (Q = mᵀ A m = P cos² + 2R cos sin + S sin²: an ellipsoid's support
     function squared): ``ARC_NEWTON`` Newton steps from the best of the angles ``samples``,
-    clamped to ``clamp`` (lo, hi) after each (None: a whole circle).  A box's edge's quarter arc
-    (:func:`_box_ellipsoid`)."""
+    clamped to ``clamp`` (lo, hi) after each.  A box's edge's quarter arc (:func:`_box_ellipsoid`)."""
     def gap(c, s_):
         return al * c + be * s_ - sm.sqrt(P * c * c + 2 * R * c * s_ + S * s_ * s_ + SDF_EPS ** 2)
     theta, best = _num(samples[0]), let(gap(_num(_tidy(math.cos(samples[0]))), _num(_tidy(math.sin(samples[0])))))
@@ -807,8 +806,7 @@ def _arc_max(al, be, P, R, S, samples, clamp, let):
         g1 = let(-al * s_ + be * c - dQ / (2 * h))
         g2 = let(-al * c - be * s_ - ddQ / (2 * h) + dQ * dQ / (4 * h * Q))
         theta = let(theta + g1 / (sm.Abs(g2) + SDF_EPS))
-        if clamp is not None:
-            theta = let(_clamp(theta, _num(clamp[0]), _num(clamp[1])))
+        theta = let(_clamp(theta, _num(clamp[0]), _num(clamp[1])))
     c, s_ = let(sm.cos(theta)), let(sm.sin(theta))
     return c, s_, let(sm.sqrt(P * c * c + 2 * R * c * s_ + S * s_ * s_ + SDF_EPS ** 2))
 
