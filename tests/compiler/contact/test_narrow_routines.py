@@ -18,6 +18,7 @@ from eomc.compiler.contact.pairs import PAIR_KINDS, bounding_radius, pair_parts,
 from eomc.compiler.ir import Program
 from eomc.compiler.passes.diff import tangent
 from eomc.compiler.tree.recorder import Recorder
+from helpers.rotations import random_rotation
 
 SIZES = {"sphere": (0.05, 0, 0), "capsule": (0.03, 0.08, 0), "box": (0.06, 0.04, 0.03),
          "cylinder": (0.05, 0.04, 0), "ellipsoid": (0.03, 0.05, 0.04)}
@@ -78,14 +79,6 @@ def _routine(ka, kb):
     return _function(taped, tuple(ins), "o"), _function(dot, tape + tuple(seeds), "do"), nout
 
 
-def _rotation(rng):
-    q = rng.normal(size=4)
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-
-
 @pytest.mark.parametrize("ka,kb", ORDERED)
 def test_routine_is_the_inlined_scheme_with_its_tangent(ka, kb):
     margin = 0.004
@@ -99,7 +92,7 @@ def test_routine_is_the_inlined_scheme_with_its_tangent(ka, kb):
     compared, pressed = 0, 0
     sizes = [float(x) for x in SIZES[ka] + SIZES[kb]] + [margin]
     for _ in range(800):
-        Ra, Rb = _rotation(rng), _rotation(rng)
+        Ra, Rb = random_rotation(rng), random_rotation(rng)
         u = rng.normal(size=3)
         cb = u / np.linalg.norm(u) * reach * rng.uniform(0.3, 1.05)
         pose = [0.0, 0.0, 0.0] + list(Ra.T.ravel()) + list(cb) + list(Rb.T.ravel())   # axes: the columns

@@ -15,6 +15,7 @@ import pytest
 mujoco = pytest.importorskip("mujoco")
 
 from eomc.compiler.contact.pairs import BOX_POINTS, pair_parts, solid_contact  # noqa: E402
+from helpers.rotations import random_rotation  # noqa: E402
 
 XML = """<mujoco><option gravity="0 0 0"/><worldbody>
 <body name="A"><freejoint/><geom name="ball" type="sphere" size="0.1"/></body>
@@ -444,7 +445,7 @@ def test_a_capsule_near_a_long_or_flat_ellipsoid_meets_it_at_its_least_distance(
         se[0] *= rng.uniform(2, 8) if i % 2 == 0 else 1
         se[1] *= rng.uniform(2, 6) if i % 3 == 0 else 1
         r, h = rng.uniform(0.01, 0.05), rng.uniform(0.02, 0.3)
-        Re, Rc = _rotation(rng), _rotation(rng)
+        Re, Rc = random_rotation(rng), random_rotation(rng)
         u = rng.normal(size=3)
         u /= np.linalg.norm(u)
         ell = {"kind": "ellipsoid", "centre": [0.0, 0.0, 0.0], "axes": [list(Re[:, k]) for k in range(3)],
@@ -514,7 +515,7 @@ def test_two_long_or_flat_ellipsoids_meet_at_their_largest_gap():
         sa, sb = rng.uniform(0.01, 0.08, 3), rng.uniform(0.01, 0.08, 3)
         sa[0] *= rng.uniform(2, 8) if i % 2 == 0 else 1
         sb[1] *= rng.uniform(2, 8) if i % 3 == 0 else 1
-        Ra, Rb = _rotation(rng), _rotation(rng)
+        Ra, Rb = random_rotation(rng), random_rotation(rng)
         A, B = Ra @ np.diag(sa ** 2) @ Ra.T, Rb @ np.diag(sb ** 2) @ Rb.T
         u = rng.normal(size=3)
         u /= np.linalg.norm(u)
@@ -534,14 +535,6 @@ def test_two_long_or_flat_ellipsoids_meet_at_their_largest_gap():
             assert mine >= g - 1e-12
             pressed += 1
     assert apart >= 10 and pressed >= 5, (apart, pressed)
-
-
-def _rotation(rng):
-    q = rng.normal(size=4)
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 @pytest.mark.parametrize("g1, g2", [("cube", "egg"), ("egg", "cube")])
