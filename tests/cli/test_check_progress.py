@@ -3,6 +3,7 @@ references the longest part): in a log, the plain lines of runtime/progress.py, 
 run (which reference, which method, its tolerances); on a terminal, the ticker's live line."""
 import re
 import threading
+import time
 
 import pytest
 
@@ -86,6 +87,23 @@ def test_the_reports_reference_prints_lines_naming_it(built, capsys, monkeypatch
     it got, as check's and simulate's do."""
     monkeypatch.setattr(progress, "LINE_SECONDS", 0.0)
     monkeypatch.setattr(progress, "POLL_S", 0.0005)
+    # the pendulum's runs take milliseconds: under load (ci40: its check, stopped at t = 991 of
+    # 3000, printed no line) the polling thread may not run before a run ends, and a run no poll
+    # saw prints nothing (right for a short run).  Each followed run's end waits here until its
+    # follower printed a line: the poll then reads the run's last state, so its lines still rise
+    # to where it ended
+    run = progress._Follower.run
+
+    def run_until_a_line(self, read, t0, t1, call, resume=False):
+        def held():
+            try:
+                return call()
+            finally:
+                deadline = time.monotonic() + 30
+                while not self.lines and time.monotonic() < deadline:
+                    time.sleep(0.001)
+        return run(self, read, t0, t1, held, resume)
+    monkeypatch.setattr(progress._Follower, "run", run_until_a_line)
     capsys.readouterr()
     # the reference is tied to the finest tolerance (1e-6 here); over 3000 s the pendulum's runs part
     # (exit 3, inconclusive): the lines are what is tested.  The check stops where the two differ by
