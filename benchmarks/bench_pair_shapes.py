@@ -67,7 +67,7 @@ def audit(ka, kb, cases, rng):
             d.qpos[7 * j + 3:7 * j + 7] = q / np.linalg.norm(q)
         u = rng.normal(size=3)
         u /= np.linalg.norm(u)
-        target, lo, hi = rng.uniform(-0.002, 0.02), 0.0, float(m.geom_rbound[0] + m.geom_rbound[1])
+        target, lo, hi = rng.uniform(-0.002, 0.02), 0.0, float(m.geom_rbound[0] + m.geom_rbound[1]) + 0.05
         for _ in range(40):
             d.qpos[7:10] = (lo + hi) / 2 * u
             mujoco.mj_kinematics(m, d)
