@@ -488,7 +488,8 @@ AXIS_NEWTON = 7         # Newton steps on the sphere for two ellipsoids' separat
 AXIS_SAFE = 2           # of them, the first with the Hessian made negative (λ ≥ 0): ascent from any start
 AXIS_TRIES = (0.25, 0.5, 1.0)   # the fractions of each step tried, in this order, after staying put
 AXIS_SLACK = 1e-13      # m: a later try is kept unless its gap is below the best so far by more (rounding)
-ARC_SAMPLES = 17        # a box edge's arc of directions: the start of its Newton steps, the best of these (_box_ellipsoid; 5 missed narrow windows of long ellipsoids, session 40)
+ARC_SAMPLES = 17        # a box edge's arc of directions: the start of its Newton steps, the best of these
+#                         (_box_ellipsoid; 5 missed the narrow window of a long ellipsoid, session 40)
 ARC_NEWTON = 6          # Newton steps on the arc
 UNREACHED = 1e3         # m: a vertex candidate whose direction leaves its corner's cone drops out by this
 SDF_EPS = 1e-15   # m: regularises the lengths inside a solid's signed distance (a normal of 0 where undefined)
@@ -692,11 +693,13 @@ def _ellipsoid_axis(a, b, let):
     ``AXIS_TRIES`` fractions of it and staying put (a choice by :class:`step`, as the pairs'
     candidates), so g never falls by more than ``AXIS_SLACK``: that slack and the order (the full
     step last) let the full Newton step win near the maximum, where its gain, quadratic in the
-    step, is below g's rounding (without it m stalled ~1e-9 off and A's point with it).  The same 600 pairs: 0 misses in 6 steps (1e-9 of the maximum
-    found from 16 starts), all converged to rounding in 7 (6: 10 of 800 poses off by up to 5e-8 in m); 3 of 300 random poses deeper than 1 cm end at a lesser local maximum
-    (deeper than the true depth).  Its caller measures the point against the other ellipsoid's
-    exact signed distance, so an unconverged m meets late, never early; a pair pressed in deeper
-    than the thinner's smallest semi-axis can put A's support point beyond B (reported apart)."""
+    step, is below g's rounding (without it m stalled ~1e-9 off and A's point with it).  The same
+    600 pairs: 0 misses in 6 steps (1e-9 of the maximum found from 16 starts), all converged to
+    rounding in 7 (6 left 10 of 800 poses up to 5e-8 off in m); 3 of 300 random poses deeper
+    than 1 cm end at a lesser local maximum (deeper than the true depth).  Its caller measures
+    the point against the other ellipsoid's exact signed distance, so an unconverged m meets late,
+    never early; a pair pressed in deeper than the thinner's smallest semi-axis can put A's
+    support point beyond B (reported apart)."""
     A, B = _ellipsoid_matrix(a), _ellipsoid_matrix(b)
     d = [let(b["centre"][k] - a["centre"][k]) for k in range(3)]
     m = _solve3([[A[r][c] + B[r][c] for c in range(3)] for r in range(3)], d, let)
@@ -858,9 +861,7 @@ def _box_ellipsoid_pair(a, b, margin, let):
     g, m, xe = cands[0]
     for g2, m2, xe2 in cands[1:]:                        # the largest gap: step(g_k - g_best)
         take = let(step(g2 - g))
-        m = [let(m[k] + take * (m2[k] - m[k])) for k in range(3)]
-        xe = [let(xe[k] + take * (xe2[k] - xe[k])) for k in range(3)]
-        g = let(g + take * (g2 - g))
+        m, xe, g = _blend(m, m2, take, let), _blend(xe, xe2, take, let), _blend(g, g2, take, let)
     depth = let(_num(margin) - g)
     if box is a:                                         # n = m; A's point the box's, x_E - g m
         return [let(xe[k] - (g + depth / 2) * m[k]) for k in range(3)], m, depth
