@@ -89,15 +89,20 @@ class _Interruptible:
         return getattr(self._lib, name)
 
     def _arm(self):
+        """Arm Ctrl-C and SIGTERM; return the eomc_options.interrupt_base of the run that follows:
+        a signal from now on stops it, also one that comes before the C run reads the count
+        (Python raises KeyboardInterrupt only as the C call returns, so that one was lost)."""
         with _ARM_LOCK:
-            self._lib.eomc_interrupt_arm()
+            return self._lib.eomc_interrupt_arm_base()
 
     def eomc_integrate(self, *args):
-        self._arm()
+        if args[1]:                      # the options (a NULL is the C call's own error)
+            args[1].interrupt_base = self._arm()
         return self._lib.eomc_integrate(*args)
 
     def eomc_integrate_ex(self, *args):
-        self._arm()
+        if args[1]:
+            args[1].interrupt_base = self._arm()
         return self._lib.eomc_integrate_ex(*args)
 
 

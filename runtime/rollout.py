@@ -318,11 +318,10 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     n_eval = t_eval.size if record == "steps" else 0
     X_out = np.empty((n, t_eval.size, model.nx)) if record == "steps" else None
     X_last = np.empty((n, model.nx))
-    status = np.empty(n, dtype=np.intc)
+    status = np.full(n, 9, dtype=np.intc)   # EOMC_ABORTED until a row's run says otherwise (a stop before the C call)
     nstep = np.zeros(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)   # 0: a row not run (a stop)
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
-    integrator_library(model.ffi)._arm()      # Ctrl-C, SIGTERM stop every thread at its next evaluation
-    try:
+    try:       # (_run_rows arms Ctrl-C and SIGTERM: they stop every thread at its next evaluation)
         return _run_rows(model, method, a, X0, P, p_stride, controls, dt, t_final, record, nthreads, raise_on_failure,
                          fast, split, implicit_lanes, t_eval, n_eval, X_out, X_last, status, nstep, buf, ffi, lib, n)
     except BaseException as stop:
@@ -382,6 +381,7 @@ def _run_rows(model, method, a, X0, P, p_stride, controls, dt, t_final, record, 
             # a row with other widths gets no total, so no rise verdict)
             nspring, springs, keep_springs = watch_springs(model, model.ffi, P[0])
             opt.nspring, opt.spring = nspring, springs
+        opt.interrupt_base = integrator_library(model.ffi)._arm()   # Ctrl-C, SIGTERM: every thread stops
         if implicit_lanes:      # each thread's rows in fibers, their NAME_implicit calls in lanes
             from .cpu import machine_lanes
             size, block = model.metadata["implicit"]["layout"]["size"], _implicit_rows_block(model)
@@ -618,7 +618,7 @@ def rollout_stats(model, opt, t0, t1, X0, P, p_stride, t_eval, X_out, threads, c
     stats = ffi.new("eomc_stats[]", max(n, 1))
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     n_eval = 0 if t_eval is None else int(np.size(t_eval))
-    integrator_library(model.ffi)._arm()      # Ctrl-C stops every thread at its next evaluation
+    opt.interrupt_base = integrator_library(model.ffi)._arm()   # Ctrl-C stops every thread at its next evaluation
     if n:
         n_rgrid, r_tgrid, R, r_stride = controls
         lib.eomc_rollout_stats(model.c_model, opt, float(t0), float(t1), n, buf(X0), buf(P), p_stride, n_rgrid,

@@ -119,10 +119,11 @@ def rollout_extras(model, a, X0, P, p_stride, controls, r, gains, t1, record, nt
                 ikeep[1][k] = v
         keep.append(ikeep)
     try:
-        integrator_library(model.ffi)._arm()      # Ctrl-C stops every thread at its next evaluation
+        opt = _options(ffi, a, implicit)
+        opt.interrupt_base = integrator_library(model.ffi)._arm()   # Ctrl-C stops every thread at its next evaluation
         if n:
             n_rgrid, r_tgrid, R, r_stride = controls
-            lib.eomc_rollout_ex(model.c_model, _options(ffi, a, implicit), 0.0, t1, n, buf(X0), buf(P), p_stride,
+            lib.eomc_rollout_ex(model.c_model, opt, 0.0, t1, n, buf(X0), buf(P), p_stride,
                                 n_rgrid, buf(r_tgrid) if r_tgrid is not None else ffi.NULL,
                                 buf(R) if R is not None else ffi.NULL, r_stride, ex, t_eval.size, buf(t_eval),
                                 buf(X_out), buf(X_last), ffi.from_buffer("int[]", status),

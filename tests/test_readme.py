@@ -214,7 +214,11 @@ def test_the_rollout_blocks_of_docs_sweeps_run_as_written(tmp_path):
     blocks = [textwrap.dedent(b) for b in _python_blocks(ROOT / "docs" / "sweeps.md")]
     first = next(b for b in blocks if "eomc.rollout(model, X0, steps=1000" in b)
     stopped = next(b for b in blocks if "partial_result" in b)
-    ctrl_c = "import os, signal, threading\nthreading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()\n"
+    # the Ctrl-C 0.5 s after the C run is armed (a Timer started before the call fired while its Python
+    # prepared a million rows, under CI's load: then no row had ended)
+    ctrl_c = ("import os, signal, threading\nfrom eomc.runtime import native\n_arm = native._Interruptible._arm\n"
+              "def _timed(self):\n    threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()\n"
+              "    return _arm(self)\nnative._Interruptible._arm = _timed\n")
     check = ("import json\nprint(json.dumps([len(res.status), int(done.sum()), int(never.sum()),"
              " int((res.status == 9).sum()), bool((res.status[never] == 9).all())]))\n")
     script = first + stopped.replace("try:\n", ctrl_c + "try:\n", 1) + check

@@ -291,6 +291,13 @@ void eomc_interrupt_disarm(void) { }
 
 long eomc_interrupt_count(void) { return (long)g_sigint; }
 
+long eomc_interrupt_arm_base(void)
+{
+    long base = (long)g_sigint + 1;      /* read first: a signal while arming counts as after */
+    eomc_interrupt_arm();
+    return base;
+}
+
 /* Nonzero when the run must stop now (Ctrl-C or SIGTERM, a callback that failed, or the
  * caller's eomc_options.stop set from another thread: read through volatile, never cached). */
 static int aborted(ctx *c)
@@ -3283,6 +3290,7 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
         if (s == EOMC_OK) unit_quats(&c, x, NULL);
     }
     c.stop = opt->stop;
+    if (opt->interrupt_base > 0) c.sigint0 = opt->interrupt_base - 1;
     ow.n = n_eval; ow.i = 0; ow.nx = m->nx; ow.t = t_eval; ow.x = x_out;
     ow.ld = sg && sg->ld_out > 0 ? sg->ld_out : m->nx;
     if (pj.on) s = project_state(&c, &pj, t0, x);

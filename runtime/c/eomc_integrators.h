@@ -185,6 +185,11 @@ typedef struct eomc_options {
                             it is nonzero the run stops at its next model evaluation with
                             EOMC_ABORTED, its rows so far written (as on Ctrl-C).  `eomc check`
                             stops its two references where they part (runtime/stability.py) */
+    long interrupt_base; /* 0: Ctrl-C and SIGTERM stop the run from its start on; n > 0: from when
+                            eomc_interrupt_count() was n - 1, the caller's arm.  Why: a signal that
+                            comes after the arm but before the run reads the count (Python has not
+                            raised it yet) was otherwise taken as older than the run, which then
+                            went on to its end (a million-row rollout: minutes; CI, session 41) */
 } eomc_options;
 
 typedef struct eomc_stats {
@@ -358,6 +363,13 @@ void eomc_interrupt_disarm(void);
  * ones not started keep EOMC_ABORTED (s29: a rollout's threads went on taking rows).
  */
 long eomc_interrupt_count(void);
+
+/*
+ * Arm (eomc_interrupt_arm) and return eomc_interrupt_count() + 1 as it was just before:
+ * the value for eomc_options.interrupt_base, so that the run stops for any signal
+ * after this call, also one that comes before the run itself starts.
+ */
+long eomc_interrupt_arm_base(void);
 
 /*
  * Evaluate the model's outputs (which == 0; noutput columns) or constraint

@@ -759,7 +759,7 @@ static int rollout_rows(const eomc_model *m, const eomc_options *opt, double t0,
                    + (opt->method == EOMC_IMPLICITFAST && opt->implicit ? opt->implicit->work_len : 0)
                    + (ex ? eomc_feedback_work_size(m, ex->fb) : 0) + job.ev_scratch + job.sw_scratch;
     job.next = 0;
-    job.sigint0 = eomc_interrupt_count();
+    job.sigint0 = opt->interrupt_base > 0 ? opt->interrupt_base - 1 : eomc_interrupt_count();
     for (k = 0; k < n; ++k)
         status[k] = EOMC_ABORTED;        /* until its run says otherwise */
     if (pthread_mutex_init(&job.lock, NULL) != 0)

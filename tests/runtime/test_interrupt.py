@@ -236,3 +236,37 @@ def test_sigterm_stops_every_rollout_thread_and_keeps_the_rows(built, kind, tmp_
     assert float(words[1]) < 1.0, words              # the whole rollout: 10 s
     n, stopped, other, nan_where_not_run = map(int, words[2:6])
     assert n == (512 if kind == "lanes" else 64) and stopped >= 1 and other == 0 and nan_where_not_run, words
+
+
+@pytest.mark.parametrize("kind", ["simulate", "rollout", "rollout with events"])
+def test_a_signal_between_the_arm_and_the_c_run_stops_it(osc, kind, monkeypatch):
+    """CI, session 41: a Ctrl-C 0.5 s into docs/sweeps.md's million-row rollout was lost, and the rows
+    ran to their end (156 s).  The signal came after the arm but before the C run read the signal
+    count, so the run took it for an older one; Python raises KeyboardInterrupt only as the C call
+    returns.  Now the run counts from the arm (eomc_options.interrupt_base).  Here the signal is
+    sent right after the arm, to a Python handler that only records it: the run must stop at its
+    first evaluation (before: it ran to its end with status 0)."""
+    from eomc.runtime import native
+    import eomc
+    real = native._Interruptible._arm
+
+    def arm_then_signal(self):
+        base = real(self)
+        os.kill(os.getpid(), signal.SIGINT)
+        return base
+    seen = []
+    previous = signal.signal(signal.SIGINT, lambda *args: seen.append(args[0]))
+    try:
+        monkeypatch.setattr(native._Interruptible, "_arm", arm_then_signal)
+        if kind == "simulate":
+            res = osc.simulate([1.0, 0.0], (0, 100.0), method="dop853", raise_on_failure=False)
+            status, steps = [res.status], [len(res.t)]
+        else:
+            extra = {"method": "auto"} if kind == "rollout with events" else {"method": "dop853"}
+            res = eomc.rollout(osc, np.tile([1.0, 0.0], (8, 1)), t_final=100.0, threads=2,
+                               raise_on_failure=False, **extra)
+            status, steps = list(res.status), list(res.steps)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert seen, "the signal was not sent"
+    assert all(s == 9 for s in status), (status, steps)
