@@ -49,6 +49,22 @@ def _build(tmp_path, tag, functions=("rhs", "jac_x", "outputs")):
                             progress=False, name="nw")
 
 
+FOUR = ("rhs", "jac_x", "jac_p", "outputs")
+
+
+@pytest.fixture(scope="module")
+def inline4(tmp_path_factory):
+    """The schemes inlined, with rhs, jac_x, jac_p and outputs: the oracle of the law routines and
+    of the pair table, built once for both (the same C: 3.3 MB, ~45 s CPU to generate and compile)."""
+    patch = pytest.MonkeyPatch()
+    for name, value in (("PAIR_TABLE", False), ("TABLE_FROM", 1), ("LAW_ROUTINES", False), ("INLINE_NARROW", True)):
+        patch.setattr(pairs, name, value)
+    try:
+        yield _build(tmp_path_factory.mktemp("inline4"), "inline", FOUR)
+    finally:
+        patch.undo()
+
+
 def _states(model, n, rng):
     X = np.zeros((n, model.nx))
     X[:, 0:3] = [0.0, 0.0, 0.04] + rng.uniform(-0.08, 0.08, (n, 3))
@@ -84,13 +100,13 @@ def test_called_routines_are_the_inlined_schemes(tmp_path, monkeypatch):
     _agree(called, inline)
 
 
-def test_law_routines_are_the_inlined_schemes(tmp_path, monkeypatch):
+def test_law_routines_are_the_inlined_schemes(tmp_path, monkeypatch, inline4):
     """pairs.LAW_ROUTINES: each pair's narrow routine, then per contact point the law routine
     (the law and both bodies' wrenches; the table is a world geom: its body inputs are 0, its
     wrench is dropped) inside the point's depth guard; rhs, jac_x (through the routines'
     tangents), jac_p (the law's parameters are its inputs) and outputs equal the inlined schemes'."""
     monkeypatch.setattr(pairs, "LAW_ROUTINES", True)
-    called = _build(tmp_path, "law", ("rhs", "jac_x", "jac_p", "outputs"))
+    called = _build(tmp_path, "law", FOUR)
     source = next((tmp_path / "law").rglob("nw.c")).read_text()
     rhs, jac = _function(source, "nw_rhs"), _function(source, "nw_jac_x")
     for a, b in KINDS:
@@ -102,9 +118,7 @@ def test_law_routines_are_the_inlined_schemes(tmp_path, monkeypatch):
     for piece in rhs.split("eomc_pair_law(")[:-1]:
         assert piece[piece.rindex("if ("):].startswith("if (!(-t"), piece[piece.rindex("if ("):][:80]
     assert "_tape(" not in rhs and jac.count("eomc_narrow_box_box_tape(") == 1
-    monkeypatch.setattr(pairs, "LAW_ROUTINES", False)
-    inline = _build(tmp_path, "inline", ("rhs", "jac_x", "jac_p", "outputs"))
-    _agree_jac_p(called, inline, _agree(called, inline))
+    _agree_jac_p(called, inline4, _agree(called, inline4))
 
 
 def _agree_jac_p(called, inline, X):
@@ -178,13 +192,13 @@ def _outputs_agree(oa, ob, names, bounded):
     return skipped
 
 
-def test_pair_table_is_the_inlined_schemes(tmp_path, monkeypatch):
+def test_pair_table_is_the_inlined_schemes(tmp_path, monkeypatch, inline4):
     """pairs.PAIR_TABLE: every pair in one call of the table-driven loop (compiler/contact/table.py:
     the kinds' narrow routines and the law routine called from a loop over static tables); rhs,
     outputs (the loop's full = 1 variant: every point, exact), jac_x and jac_p (the loop's
     tangent twin) equal the inlined schemes'."""
     monkeypatch.setattr(pairs, "PAIR_TABLE", True)
-    called = _build(tmp_path, "table", ("rhs", "jac_x", "jac_p", "outputs"))
+    called = _build(tmp_path, "table", FOUR)
     source = next((tmp_path / "table").rglob("nw.c")).read_text()
     rhs, jac = _function(source, "nw_rhs"), _function(source, "nw_jac_x")
     assert rhs.count("eomc_pairs(") == 1 and "eomc_narrow_box_box(" not in rhs and "eomc_pair_law(" not in rhs
@@ -193,9 +207,7 @@ def test_pair_table_is_the_inlined_schemes(tmp_path, monkeypatch):
     assert "eomc_pairs_tape(" in jac and "_rnea_derivs(an, u, ud, out, 24, 12, -1.0, 1, &PT_[" in jac
     assert "eomc_pairs_dot(pt, din, 0, 0, dw);" in source
     assert ", 1, &PT_[0])" in _function(source, "nw_outputs")     # outputs: every point, exact
-    monkeypatch.setattr(pairs, "PAIR_TABLE", False)
-    inline = _build(tmp_path, "inline", ("rhs", "jac_x", "jac_p", "outputs"))
-    _agree_jac_p(called, inline, _agree(called, inline))
+    _agree_jac_p(called, inline4, _agree(called, inline4))
 
 
 # a chain's limbs (one tree: self-pairs, pairs=True) and a free ball: capsule–capsule, sphere–capsule,
