@@ -70,6 +70,7 @@ class Progress:
         self.timings = {}
         self.doing = None       # what a long stage's later log lines say it is past
         self.passes_done = 0
+        self.now = None         # ... and what it is at now (passes.timing.doing), until the next pass ends
         self.live = ticker("", self.stream, enabled=False)
 
     def stage(self, label):
@@ -88,7 +89,7 @@ class Progress:
                 self.said = threading.Event()
                 self.done = threading.Event()
                 self.timer = None
-                progress.doing, progress.passes_done = None, 0
+                progress.doing, progress.passes_done, progress.now = None, 0, None
                 if progress.log_long:
                     self.timer = threading.Thread(target=self._still_running, daemon=True,
                                                   name="eomc-progress-log")
@@ -102,6 +103,7 @@ class Progress:
                     so_far = (f"{progress.LOG_AFTER:g}" if first else
                               f"{time.perf_counter() - self.start:.0f}")
                     doing = f", {progress.doing}" if progress.doing else ""
+                    doing += f"{';' if doing else ','} now {progress.now}" if progress.now else ""
                     print(f"eomc: {label} ... (still running after {so_far} s{doing})",
                           file=progress.stream, flush=True)
                     wait, first = progress.LOG_EVERY, False
@@ -122,6 +124,11 @@ class Progress:
         self.live.note(f"after {label}")
         self.passes_done += 1
         self.doing = f"{self.passes_done} passes done, the last {label}"
+        self.now = None
+
+    def now_doing(self, text):
+        """What the running step is at (passes.timing.doing): the next log line says it."""
+        self.now = text
         if self.enabled and seconds >= self.PASS_SHOWN:
             line = f"eomc:   {label:<22} {seconds:7.3f} s"
             if self.live.active:
@@ -260,7 +267,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
         if note is not None:
             generated.metadata["formulation_note"] = note
         return generated
-    with progress.stage("generate"), reporting(progress.pass_done), _fewer_collections():
+    with progress.stage("generate"), reporting(progress.pass_done, progress.now_doing), _fewer_collections():
         if use_cache:
             generated, _ = cached_generate(spec, functions, fold_parameters, run_generator,
                                            cache_root(cache_dir),

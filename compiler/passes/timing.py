@@ -12,20 +12,36 @@ import os
 import sys
 import time
 
-__all__ = ["compiler_pass", "compiler_step", "PASS_TIMES", "reporting"]
+__all__ = ["compiler_pass", "compiler_step", "PASS_TIMES", "reporting", "doing"]
 
 PASS_TIMES = {}
 _LISTENERS = []
+_DOING = []
 
 
 @contextlib.contextmanager
-def reporting(callback):
-    """Call ``callback(pass name, seconds)`` after every pass run inside the block."""
+def reporting(callback, now=None):
+    """Call ``callback(pass name, seconds)`` after every pass run inside the block, and
+    ``now(text)`` (when given) with every :func:`doing` note."""
     _LISTENERS.append(callback)
+    if now is not None:
+        _DOING.append(now)
     try:
         yield
     finally:
         _LISTENERS.remove(callback)
+        if now is not None:
+            _DOING.remove(now)
+
+
+def doing(text):
+    """Say what a long step is at now, in the user's words: the build's progress log names it.
+
+    Why: the log's lines said only which pass a stage was past ("26 passes done, the last
+    dropping unused code") while dm_control's dog spent over ten minutes inside the next step,
+    inlining its body-body contacts with rolling friction one by one (session 41)."""
+    for listener in list(_DOING):
+        listener(text)
 
 
 def compiler_pass(func):

@@ -15,6 +15,7 @@ from ..contact import pairs as _pairs
 from ..contact.pairs import PairLoad, pair_guards
 from ..contact.table import lower_table
 from ..contact.tree import CLIP_KIND, ENERGY, ENERGY_IMPLICIT, ContactLoad, ContactValue, contact_outputs
+from ..passes.timing import doing
 from .construct import _add, _mul
 from .placement import Placement
 from .spatial import cross
@@ -103,6 +104,8 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         if id(load) in in_table:
             continue
         if isinstance(load, PairLoad):
+            # the progress log names it (dm_control's dog: its pairs with rolling friction, minutes)
+            doing(f"inlining body-body contact {len(pairs) + 1} of {len(inlined)} ({load.name})")
             values.update(load.lower(bodies, rec, v, rename, poses, broad=pairs, slopes=inline_slopes))
         else:
             values.update(load.lower(bodies, rec, v, rename, poses) or {})

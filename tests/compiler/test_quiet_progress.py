@@ -95,3 +95,27 @@ def test_progress_on_in_a_log_also_reports_a_long_stage(monkeypatch):
     quiet = _long_stage_log(monkeypatch, "quiet", seconds=0.5)
     off = _long_stage_log(monkeypatch, False, seconds=0.5)
     assert quiet == [] and off == []
+
+
+def test_later_log_lines_say_what_a_long_step_is_at_now(monkeypatch):
+    """dm_control's dog (session 41) spent over ten minutes inlining its body-body contacts with rolling
+    friction while every line said "26 passes done, the last dropping unused code": a step that notes
+    what it is at (passes.timing.doing) is named on the next line, until the next pass ends."""
+    from eomc.compiler.driver import Progress
+    from eomc.compiler.passes.timing import doing, reporting
+    monkeypatch.setattr(Progress, "LOG_AFTER", 0.1)
+    monkeypatch.setattr(Progress, "LOG_EVERY", 0.25)
+    log = io.StringIO()
+    progress = Progress(None, log)
+    with progress.stage("generate"), reporting(progress.pass_done, progress.now_doing):
+        progress.pass_done("cse", 0.0)
+        doing("inlining body-body contact 3 of 9 (foot_L-ball)")
+        time.sleep(0.45)
+        progress.pass_done("contacts", 0.0)
+        time.sleep(0.3)
+    running = [line for line in log.getvalue().splitlines() if "still running" in line]
+    now = [line for line in running if line.endswith("1 passes done, the last common subexpressions; now inlining "
+                                                      "body-body contact 3 of 9 (foot_L-ball))")]
+    assert now, running
+    assert running[-1].endswith("2 passes done, the last contact laws)"), running    # the note ended with its step
+    doing("heard by nobody")        # no stage listening: nothing happens
