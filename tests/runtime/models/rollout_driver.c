@@ -25,7 +25,7 @@ static int check(const eomc_model *m, int method, const double *P, size_t p_stri
     double *w = malloc(sizeof(double) * nw);
     int status[N], bad = 0;
     long steps[N];
-    eomc_options o = {method, 1e-7, 1e-9, 0.01, 0.0, 20000, 0, 1, 0.0, 0.04, 0, NULL, NULL, 0, NULL, 0, NULL, NULL};
+    eomc_options o = {method, 1e-7, 1e-9, 0.01, 0.0, 20000, 0, 1, 0.0, 0.04, 0, NULL, NULL, 0, NULL, 0, NULL, NULL, 0};
     for (int i = 0; i < N * nx; i++) X0[i] = 0.1 * (i % 7) - 0.3;
     for (int i = 0; i < NE; i++) te[i] = 0.1 * i;
     int s = eomc_rollout(m, &o, 0.0, 1.0, N, X0, P, p_stride, NE, te, X_out, X_last, status, steps, 3);
@@ -61,7 +61,7 @@ static int check_ex(void)
     double t_rec[N * CAP], x_rec[N * CAP * 2], gmax[N * 2], tr1[CAP], xr1[CAP * 2];
     int id_rec[N * CAP], n_rec[N], term[N], status[N], ir1[CAP], col = 0, dir = 0, terminal = 3, bad = 0;
     long steps[N];
-    eomc_options o = {EOMC_DOP853, 1e-8, 1e-10, 0.0, 0.0, 20000, 0, 1, 0.0, 0.04, 0, NULL, NULL, 0, NULL, 0, NULL, NULL};
+    eomc_options o = {EOMC_DOP853, 1e-8, 1e-10, 0.0, 0.0, 20000, 0, 1, 0.0, 0.04, 0, NULL, NULL, 0, NULL, 0, NULL, NULL, 0};
     eomc_feedback fb = {K, ref, NULL, NULL, NULL, NK, tg, 1};
     size_t evs = eomc_events_scratch_size(m, m->nx, 1);
     eomc_events ev = {1, m->rhs, m->nx, &col, &dir, &terminal, CAP, NULL, NULL, NULL, 0, 0, NULL,

@@ -25,7 +25,7 @@ static int run(const eomc_model *m, int method, const double *x0, const double *
     double *w = malloc(sizeof(double) * nw);
     eomc_options o = {method, 1e-7, 1e-9, method == EOMC_RK4 || method == EOMC_IMPLICITFAST ? 0.01 : 0.0,
                       0.0, 20000,
-                      project == 1, 1, project == 2 ? 5.0 : 0.0, 0.04, 0, NULL, NULL, 0, NULL, 0, NULL, NULL};  /* project 2: baumgarte */
+                      project == 1, 1, project == 2 ? 5.0 : 0.0, 0.04, 0, NULL, NULL, 0, NULL, 0, NULL, NULL, 0};  /* project 2: baumgarte */
     eomc_stats st;
     int s;
     for (int i = 0; i < NE; i++) te[i] = t1 * i / (NE - 1);
