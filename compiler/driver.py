@@ -125,16 +125,16 @@ class Progress:
         self.passes_done += 1
         self.doing = f"{self.passes_done} passes done, the last {label}"
         self.now = None
-
-    def now_doing(self, text):
-        """What the running step is at (passes.timing.doing): the next log line says it."""
-        self.now = text
         if self.enabled and seconds >= self.PASS_SHOWN:
             line = f"eomc:   {label:<22} {seconds:7.3f} s"
             if self.live.active:
                 self.live.write(line)
             else:
                 print(line, file=self.stream, flush=True)
+
+    def now_doing(self, text):
+        """What the running step is at (passes.timing.doing): the next log line says it."""
+        self.now = text
 
 
 @contextlib.contextmanager
