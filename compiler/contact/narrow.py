@@ -90,6 +90,15 @@ LAW_RID = len(ROUTINE_KINDS)
 # "slopes" loop): the law's inputs, and as outputs the relative velocity v_B(p) - v_A(p) (3, world) and
 # the law's K = -dF/dp, C = -dF/dv on that relative motion (9 + 9, rows; .law.ground_jacobians)
 SLOPES_RID = LAW_RID + 1
+# The *spinning law routine* (LAW_SPIN_RID): the law routine with torsional and rolling friction
+# (.law.spin_moment), for a table that holds a pair with them (MJCF condim 4, 6): its inputs are the
+# law routine's and then the pair's μ_t, μ_r and ρ (0, 0 and 1 for a pair without them: its moment is
+# then ±0), its outputs the law routine's, the moment added to both wrenches.  Why a routine of its
+# own: such pairs were inlined one by one (the table's law had no moment), and dm_control's dog, whose
+# teeth are condim 6 against 120 capsules and ellipsoids, did not build in ten minutes.
+LAW_SPIN_RID = SLOPES_RID + 1
+SPIN_PARAMS = ("mut", "mur", "rho")
+LAW_SPIN_NPOSE = LAW_NPOSE + len(SPIN_PARAMS)
 # a law call's output array is NP<LAW_UID + the point's index>_ (a narrow call's: NP<the pair's first point>_)
 LAW_UID = 1000000
 
@@ -100,7 +109,7 @@ def routine_index(kind_a, kind_b):
 
 def is_law(rid):
     """A routine of the law's inputs (the law routine, the slopes routine), not a narrow phase."""
-    return rid in (LAW_RID, SLOPES_RID)
+    return rid in (LAW_RID, SLOPES_RID, LAW_SPIN_RID)
 
 
 def kinds_of(rid):
@@ -109,15 +118,16 @@ def kinds_of(rid):
 
 def npose(rid):
     """How many of routine ``rid``'s inputs have tangents (the rest: sizes and margin, numbers)."""
-    return LAW_NPOSE if is_law(rid) else NPOSE
+    return LAW_SPIN_NPOSE if rid == LAW_SPIN_RID else LAW_NPOSE if is_law(rid) else NPOSE
 
 
 def ninput(rid):
-    return LAW_NPOSE if is_law(rid) else NINPUT
+    return npose(rid) if is_law(rid) else NINPUT
 
 
 def _cname(rid, variant=None):
-    base = "eomc_pair_slopes" if rid == SLOPES_RID else "eomc_pair_law" if is_law(rid) else "eomc_narrow_%s_%s" % kinds_of(rid)
+    base = ("eomc_pair_slopes" if rid == SLOPES_RID else "eomc_pair_law_spin" if rid == LAW_SPIN_RID else
+            "eomc_pair_law" if is_law(rid) else "eomc_narrow_%s_%s" % kinds_of(rid))
     return base + ("_" + variant if variant else "")
 
 
@@ -276,13 +286,14 @@ def routine_outputs(rid):
 _SCHEMES = []   # the pair schemes: .pairs sets them when imported (it imports this module)
 
 
-def use_schemes(outputs, law, slopes):
+def use_schemes(outputs, law, slopes, law_spin):
     """``outputs(a, b, margin, let)``: the list p, n, δ of every contact point of two placed
     shapes ({kind, centre, axes, size}) -- :mod:`.pairs`' schemes, the routines' bodies;
     ``law(p, n, depth, body_a, body_b, params, let)``: the law routine's outputs (LAW_OUTPUTS;
     body_*: (origin, rotation rows, ω, v), params {k, c, mu, vs}); ``slopes``, with the same
-    arguments: the slopes routine's (SLOPES_RID)."""
-    _SCHEMES[:] = [outputs, law, slopes]
+    arguments: the slopes routine's (SLOPES_RID); ``law_spin``, with params also holding "mut",
+    "mur", "rho": the spinning law routine's (LAW_SPIN_RID)."""
+    _SCHEMES[:] = [outputs, law, slopes, law_spin]
 
 
 class _Straight:
@@ -309,14 +320,16 @@ def _program(rid):
     """(Program with results ("o", i): the outputs of routine ``rid``, input symbols)."""
     rec = _Straight()
     if is_law(rid):
-        ins = sm.symbols(f"in0:{LAW_NPOSE}", real=True)
+        ins = sm.symbols(f"in0:{npose(rid)}", real=True)
         bodies = []
         for j in (PER_PART, PER_PART + BODY_INPUTS):
             R = [list(ins[j + 3 + 3 * r:j + 6 + 3 * r]) for r in range(3)]
             bodies.append((list(ins[j:j + 3]), R, list(ins[j + 12:j + 15]), list(ins[j + 15:j + 18])))
         params = dict(zip(("k", "c", "mu", "vs"), ins[LAW_NPOSE - 4:LAW_NPOSE]))
-        results = _SCHEMES[1 if rid == LAW_RID else 2](list(ins[0:3]), list(ins[3:6]), ins[6], bodies[0], bodies[1],
-                                                       params, rec.let)
+        if rid == LAW_SPIN_RID:
+            params.update(zip(SPIN_PARAMS, ins[LAW_NPOSE:]))
+        scheme = _SCHEMES[{LAW_RID: 1, SLOPES_RID: 2, LAW_SPIN_RID: 3}[rid]]
+        results = scheme(list(ins[0:3]), list(ins[3:6]), ins[6], bodies[0], bodies[1], params, rec.let)
     else:
         ka, kb = kinds_of(rid)
         ins = sm.symbols(f"in0:{NINPUT}", real=True)
@@ -394,7 +407,8 @@ def routine_code(rid, variant=None):
         head_text = ("/* body-body pair contact law's slopes at one contact point: v_B - v_A, K = -dF/dp, "
                      "C = -dF/dv (compiler/contact/narrow.py) */\n")
     elif is_law(rid):
-        head_text = (f"/* body-body pair contact law at one contact point: {what}the wrenches on B and A, F_n, "
+        spin = " with torsional and rolling friction" if rid == LAW_SPIN_RID else ""
+        head_text = (f"/* body-body pair contact law{spin} at one contact point: {what}the wrenches on B and A, F_n, "
                      f"friction, clip{after} (compiler/contact/narrow.py) */\n")
     else:
         ka, kb = kinds_of(rid)

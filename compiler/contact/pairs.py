@@ -136,7 +136,7 @@ class PairLoad(LoweredLoad):
     b: PairShape
     params: dict               # "k", "c", "mu", "vs" -> Symbol (or literal when folded); with torsional
     #                            and rolling friction (MJCF condim 4, 6) also "mut"/"mur" and "rho"
-    #                            (.law.spin_moment): such a pair is inlined, never in the table
+    #                            (.law.spin_moment): in the table, its law is the spinning law routine
     margin: float = 0.0
     index: int = 0             # its PairValue placeholders' first argument (outputs, events)
     part: int = -1             # which of the pair's contact points (:func:`pair_parts`); -1: the only one
@@ -166,8 +166,9 @@ class PairLoad(LoweredLoad):
 
     @property
     def spins(self):
-        """Has torsional or rolling friction (.law.spin_moment): lowered inline (the table's and
-        the law routine's law have none)."""
+        """Has torsional or rolling friction (.law.spin_moment): inlined, or in the pairs' table
+        whose law is then the spinning law routine (.narrow.LAW_SPIN_RID); never the law routine
+        of ``LAW_ROUTINES`` (which has no moment)."""
         return any(k in self.params for k in SPIN_KEYS)
 
     def narrow(self, a, b, let, called=False):
@@ -1366,4 +1367,21 @@ def _slope_outputs(p, n, depth, body_a, body_b, params, let):
     return list(vrel) + [x for row in K for x in row] + [x for row in C for x in row]
 
 
-nw.use_schemes(_scheme_outputs, _law_outputs, _slope_outputs)
+def _law_spin_outputs(p, n, depth, body_a, body_b, params, let):
+    """The spinning law routine's outputs at one contact point (.narrow, LAW_SPIN_RID): those of
+    :func:`_law_outputs`, the torsional and rolling friction moment (.law.spin_moment, of B's angular
+    velocity relative to A's) added to B's wrench and taken from A's, as :meth:`PairLoad.lower` adds
+    it inlined.  A body of zeros (the world's, in the table's loop) turns with ω = 0."""
+    fn, ft, f, rate, _ = _law(n, depth, _velocity_at(body_a, p, let), _velocity_at(body_b, p, let), params, let)
+    wa, wb = ([let(sum((body[1][r][k] * body[2][r] for r in range(3)), sm.S.Zero)) for k in range(3)]
+              for body in (body_a, body_b))
+    moment = spin_moment([wb[k] - wa[k] for k in range(3)], n, fn, params, let)
+    out = []
+    for body, sign, force in ((body_b, 1, f), (body_a, -1, [-x for x in f])):
+        wrench = _wrench(body, force, p, let)
+        turn = [sum((body[1][r][k] * moment[k] for k in range(3)), sm.S.Zero) for r in range(3)]
+        out += [let(wrench[r] + sign * turn[r]) for r in range(3)] + wrench[3:]
+    return out + [fn, *ft, clip_switch(depth, params["c"], rate)]
+
+
+nw.use_schemes(_scheme_outputs, _law_outputs, _slope_outputs, _law_spin_outputs)

@@ -15,7 +15,11 @@ made the humanoid's default function set 44 s CPU against 23 s without self-pair
 The call's inputs (one array) are what varies per call: per moving body that holds a pair's shape
 its origin, world -> body rotation (rows), ω and origin velocity (body components: the law
 routine's body layout, .narrow.BODY_INPUTS), per shape its offset from its body's origin (body
-frame; a world shape's centre), per pair the law's k, c, μ, v_s.  What is fixed at build is in
+frame; a world shape's centre), per pair the law's k, c, μ, v_s -- and μ_t, μ_r, ρ when a pair of
+the table has torsional or rolling friction (MJCF condim 4, 6: :attr:`Table.spin`; every pair's law
+is then the spinning law routine, .narrow.LAW_SPIN_RID, with 0, 0, 1 for a pair without them, whose
+moment is ±0).  Why in the table: such pairs were inlined one by one, and dm_control's dog (condim-6
+teeth against 120 capsules and ellipsoids) did not build in ten minutes.  What is fixed at build is in
 static tables: per shape its body, rotation and size, per pair its two shapes, margin and the
 square of its broad-phase reach.  The function
 
@@ -87,6 +91,8 @@ __all__ = ["DEPTHS_POSITIVE", "PairTableCall", "PairTableOut", "PairTableKernelT
            "reads_depths_positive_only", "table_of"]
 
 TAPE_ROOM = 4096         # doubles of the pairs' routine tapes a taped call keeps (pairs in contact; see _loop)
+LAW_PARAMS = ("k", "c", "mu", "vs")   # a pair's law parameters in the loop's inputs, then (a spinning
+_SPIN_NONE = {"mut": sm.S.Zero, "mur": sm.S.Zero, "rho": sm.S.One}   # table) nw.SPIN_PARAMS or these
 POINT_OUTPUTS = 9        # F_n, friction (3), δ, clip, p (3): PairValue kinds 0..8
 # the "slopes" variant's outputs per contact point, after the others: NAME_implicit's contact entry
 # (compiler/tree/lower.implicit_layout): δ (0 where the broad phase skips the pair), p (3; 0 there),
@@ -106,16 +112,21 @@ _TABLES = {}             # table id -> Table (this process's lowering; the C is 
 class Table:
     """What the C function is generated from: the shapes, the pairs, the gathered bodies."""
 
-    def __init__(self, bodies, shapes, pairs):
+    def __init__(self, bodies, shapes, pairs, spin=False):
         self.bodies = bodies     # tree body indices, in input order
         self.shapes = shapes     # [(gathered body index or -1, kind, rot 9, size 3)]
         self.pairs = pairs       # [(rid, shape a, shape b, margin, reach², first point)]
+        # a pair with torsional or rolling friction: every pair's law is the spinning law routine,
+        # with its 3 more parameters (nw.SPIN_PARAMS; 0, 0, 1 where a pair has none)
+        self.spin = spin
+        self.law = nw.LAW_SPIN_RID if spin else nw.LAW_RID
+        self.npar = len(LAW_PARAMS) + (len(nw.SPIN_PARAMS) if spin else 0)    # law parameters per pair
         self.npoints = sum(len(_parts(rid)) for rid, *_ in pairs)
         self.nstate = 18 * len(bodies) + 3 * len(shapes)
-        self.ninput = self.nstate + 4 * len(pairs)
+        self.ninput = self.nstate + self.npar * len(pairs)
         self.nwrench = 6 * len(bodies)
         self.noutput = self.nwrench + POINT_OUTPUTS * self.npoints
-        law = nw.routine_outputs(nw.LAW_RID) + len(nw.tape_of(nw.LAW_RID))
+        law = nw.routine_outputs(self.law) + len(nw.tape_of(self.law))
         need = sum(nw.routine_outputs(rid) + len(nw.tape_of(rid)) + len(_parts(rid)) * law for rid, *_ in pairs)
         self.room = min(need, TAPE_ROOM)     # the taped call's room for them
         # the "slopes" variant's output after its slope block: its points' elastic energy, per point
@@ -126,7 +137,7 @@ class Table:
         self.energy_at = self.noutput + SLOPE_OUTPUTS * self.npoints
 
     def key(self):
-        return (tuple(self.bodies), tuple(self.shapes), tuple(self.pairs), self.room)
+        return (tuple(self.bodies), tuple(self.shapes), tuple(self.pairs), self.room, self.spin)
 
 
 def _parts(rid):
@@ -180,7 +191,10 @@ def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, slopes=None
         pairs.append((rid, ia, ib, float(ld.margin), reach * reach, point))
         bases[base] = point
         point += len(_parts(rid))
-        params += [rename(ld.params[k], what) for k in ("k", "c", "mu", "vs")]
+        params.append([rename(ld.params[k], what) for k in LAW_PARAMS])
+        params[-1] += [rename(ld.params[k], what) if k in ld.params else _SPIN_NONE[k] for k in nw.SPIN_PARAMS]
+    spin = any(ld.spins for ld in first.values())
+    params = [x for row in params for x in (row if spin else row[:len(LAW_PARAMS)])]
     inputs = []
     for i in gathered:
         R = poses.world_to_body(i)
@@ -189,7 +203,7 @@ def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, slopes=None
     for off in offsets:
         inputs += off
     inputs += params
-    table = Table(tuple(gathered), tuple(shapes), tuple(pairs))
+    table = Table(tuple(gathered), tuple(shapes), tuple(pairs), spin)
     tid = next((k for k, t in _TABLES.items() if t.key() == table.key()), len(_TABLES))
     _TABLES.setdefault(tid, table)
     call = rec.let(PairTableCall(sm.Integer(tid), sm.S.Zero, *[rec.let(x) for x in inputs]))
@@ -560,7 +574,7 @@ def _routines(table, tape, dot, slopes=False, energy=False):
     that variant summing its points' elastic energy, Table.energy_at)."""
     rids = sorted({p[0] for p in table.pairs})
     out = []
-    for rid in rids + [nw.LAW_RID] + ([nw.SLOPES_RID] if slopes else []):
+    for rid in rids + [table.law] + ([nw.SLOPES_RID] if slopes else []):
         for var in ([None, "tape", "dot"] if dot else [None, "tape"] if tape else [None]):
             text, split = nw.routine_code(rid, var)
             out.append(((rid, {None: 0, "dot": 1, "tape": 2}[var]), text, split))
@@ -612,7 +626,8 @@ def _loop(t, mode, energy=False):
     dot, tape, slopes, into = mode == "dot", mode == "tape", mode in ("slopes", "into"), mode == "into"
     ns, nb = len(t.shapes), len(t.bodies)
     off = 18 * nb
-    nlaw, nlt = nw.routine_outputs(nw.LAW_RID), len(nw.tape_of(nw.LAW_RID))
+    nlaw, nlt = nw.routine_outputs(t.law), len(nw.tape_of(t.law))
+    law = nw._cname(t.law)
     L = []
     if dot:
         L.append("/* tangents of the body-body pairs' loop (compiler/contact/table.py): in the tape (eomc_pairs_tape's), "
@@ -723,12 +738,12 @@ def _loop(t, mode, energy=False):
         L.append("            const double *pp = np + 7 * m;")
         L.append("            const int ba = eomc_pairs_sbody[P[0]], bb = eomc_pairs_sbody[P[1]];")
         L.append(f"            const double *A = ba < 0 ? zero : in + 18 * ba, *B = bb < 0 ? zero : in + 18 * bb;")
-        L.append("            const double *par = pars + 4 * P[2];")
+        L.append(f"            const double *par = pars + {t.npar} * P[2];")
         L.append(f"            double *po = out + {t.nwrench} + {POINT_OUTPUTS} * (P[3] + m);")
         if dot:
             L.append("            const double *pd = nd + 7 * m;")
             L.append(f"            const double *dA = ba < 0 ? zero : din + 18 * ba, *dB = bb < 0 ? zero : din + 18 * bb;")
-            L.append("            const double *dp = dpar ? dpar + 4 * P[2] : zero;")
+            L.append(f"            const double *dp = dpar ? dpar + {t.npar} * P[2] : zero;")
             L.append(f"            double ll[{nlaw + nlt}], lo[{nlaw}];")
             L.append(f"            const double *lt = np != nl ? np + {nout + ntape} + {nlaw + nlt} * m : ll;")
             src, tgt = "pd", "lo"
@@ -754,18 +769,18 @@ def _loop(t, mode, energy=False):
             L.append(f"            if (full == 2 && -pp[6] > {_fmt(BROAD_PAD)}) {{ po[5] = -pp[6]; continue; }}")
         if not dot and not tape and not slopes:
             L.append(f"            if (full == {DEPTHS}) continue;   /* NAME_energy: the point's δ alone */")
-        largs = ", ".join(_law_args("pp", "A", "B", "par"))
+        largs = ", ".join(_law_args("pp", "A", "B", "par", t.npar))
         if dot:
-            L.append(f"            if (lt == ll) eomc_pair_law_tape({largs}, ll);")
-            dl = ", ".join(_law_args("pd", "dA", "dB", "dp"))
-            L.append(f"            eomc_pair_law_dot(&lt[{nlaw}], {dl}, lo);")
+            L.append(f"            if (lt == ll) {law}_tape({largs}, ll);")
+            dl = ", ".join(_law_args("pd", "dA", "dB", "dp", t.npar))
+            L.append(f"            {law}_dot(&lt[{nlaw}], {dl}, lo);")
         elif tape:
             L.append("            on = 1;")
-            L.append(f"            eomc_pair_law_tape({largs}, lo);")
+            L.append(f"            {law}_tape({largs}, lo);")
         else:
-            L.append(f"            eomc_pair_law({largs}, lo);")
-            if slopes:
-                L.append(f"            eomc_pair_slopes({largs}, &sl[4]);")
+            L.append(f"            {law}({largs}, lo);")
+            if slopes:      # (the slopes have no moment: the law's first parameters alone)
+                L.append(f"            eomc_pair_slopes({', '.join(_law_args('pp', 'A', 'B', 'par'))}, &sl[4]);")
             if into:
                 L.append(f"            for (k = 4; k < {SLOPE_OUTPUTS}; ++k) chk += sl[k];")
             if energy:  # k δ^(5/2) / (5/2), as NAME_energy prints _pair_energy's term (δ₊ = δ here)
@@ -1013,9 +1028,9 @@ def _narrow_dargs():
             + [f"dcen[3 * P[1] + {k}]" for k in range(3)] + [f"dax[9 * P[1] + {k}]" for k in range(9)])
 
 
-def _law_args(p, a, b, par):
+def _law_args(p, a, b, par, npar=4):
     return ([f"{p}[{k}]" for k in range(7)] + [f"{a}[{k}]" for k in range(18)]
-            + [f"{b}[{k}]" for k in range(18)] + [f"{par}[{k}]" for k in range(4)])
+            + [f"{b}[{k}]" for k in range(18)] + [f"{par}[{k}]" for k in range(npar)])
 
 
 # --- the reverse sweep (vjp, hvp, hess_id) -------------------------------------------------------
@@ -1084,8 +1099,8 @@ def _optional(values, printer):
 def _bar_routines(table, dot):
     """[(key, C text, split)]: the routines the reverse loop (``dot``: its tangent) calls, then it."""
     out = []
-    for rid in sorted({p[0] for p in table.pairs}) + [nw.LAW_RID]:
-        variants = (["tape", "dot", "bar_dot"] if rid != nw.LAW_RID else [None, "bar_dot"]) if dot else [None, "bar"]
+    for rid in sorted({p[0] for p in table.pairs}) + [table.law]:
+        variants = (["tape", "dot", "bar_dot"] if rid != table.law else [None, "bar_dot"]) if dot else [None, "bar"]
         for var in variants:
             text, split = nw.routine_code(rid, var)
             out.append(((rid, {None: 0, "dot": 1, "tape": 2, "bar": 3, "bar_dot": 4}[var]), text, split))
@@ -1098,7 +1113,8 @@ def _bar_loop(t, dot):
     """The loop's reverse twin (``dot``: its tangent, forward over reverse)."""
     ns, nb = len(t.shapes), len(t.bodies)
     off = 18 * nb
-    nlaw, nlo = nw.LAW_NPOSE, nw.routine_outputs(nw.LAW_RID)
+    nlaw, nlo = nw.npose(t.law), nw.routine_outputs(t.law)
+    law = nw._cname(t.law)
     L = []
     if dot:
         L.append("/* tangent of the body-body pairs' reverse sweep (compiler/contact/table.py): out = the bars of in "
@@ -1154,7 +1170,7 @@ def _bar_loop(t, dot):
         L.append("            const double *pp = np + 7 * m;")
         L.append("            const int ba = eomc_pairs_sbody[P[0]], bb = eomc_pairs_sbody[P[1]];")
         L.append("            const double *A = ba < 0 ? zero : in + 18 * ba, *B = bb < 0 ? zero : in + 18 * bb;")
-        L.append("            const double *par = pars + 4 * P[2];")
+        L.append(f"            const double *par = pars + {t.npar} * P[2];")
         L.append(f"            double lg[{nlo}], lb[{nlaw * (2 if dot else 1)}];")
         seeds = [("", "gn", "gw", "gp", "out", 0)] + ([("d", "dgn", "dgw", "dgp", "dout", nlaw)] if dot else [])
         for d, gn, gw, gp, o, at in seeds:     # the bars, then (dot) their tangents
@@ -1162,12 +1178,12 @@ def _bar_loop(t, dot):
             L.append(f"            {gn}[7 * m + 6] += {d}go[4];")
             L.append(f"            for (k = 0; k < 3; ++k) {gn}[7 * m + k] += {d}go[6 + k];")
         L.append("            if (!full && -pp[6] > 0) continue;")
-        L.append(f"            const double li[{nlaw}] = {{{', '.join(_law_args('pp', 'A', 'B', 'par'))}}};")
+        L.append(f"            const double li[{nlaw}] = {{{', '.join(_law_args('pp', 'A', 'B', 'par', t.npar))}}};")
         if dot:
             L.append("            const double *pd = nd + 7 * m;")
             L.append("            const double *dA = ba < 0 ? zero : din + 18 * ba, *dB = bb < 0 ? zero : din + 18 * bb;")
-            L.append("            const double *dp = dpar ? dpar + 4 * P[2] : zero;")
-            L.append(f"            const double dli[{nlaw}] = {{{', '.join(_law_args('pd', 'dA', 'dB', 'dp'))}}};")
+            L.append(f"            const double *dp = dpar ? dpar + {t.npar} * P[2] : zero;")
+            L.append(f"            const double dli[{nlaw}] = {{{', '.join(_law_args('pd', 'dA', 'dB', 'dp', t.npar))}}};")
             L.append(f"            double dlg[{nlo}];")
         for d, gn, gw, gp, o, at in seeds:
             L.append("            for (k = 0; k < 6; ++k) {")
@@ -1177,14 +1193,14 @@ def _bar_loop(t, dot):
             L.append(f"            for (k = 0; k < 4; ++k) {d}lg[12 + k] = {d}go[k];")
             L.append(f"            {d}lg[16] = {d}go[5];")
         if dot:
-            L.append("            eomc_pair_law_bar_dot(li, lg, dli, dlg, lb);")
+            L.append(f"            {law}_bar_dot(li, lg, dli, dlg, lb);")
         else:
-            L.append("            eomc_pair_law_bar(li, lg, lb);")
+            L.append(f"            {law}_bar(li, lg, lb);")
         for d, gn, gw, gp, o, at in seeds:
             L.append(f"            for (k = 0; k < 7; ++k) {gn}[7 * m + k] += lb[{at} + k];")
             L.append(f"            if (ba >= 0) for (k = 0; k < 18; ++k) {o}[18 * ba + k] += lb[{at + 7} + k];")
             L.append(f"            if (bb >= 0) for (k = 0; k < 18; ++k) {o}[18 * bb + k] += lb[{at + 25} + k];")
-            L.append(f"            for (k = 0; k < 4; ++k) {o}[{t.nstate} + 4 * P[2] + k] += lb[{at + 43} + k];")
+            L.append(f"            for (k = 0; k < {t.npar}; ++k) {o}[{t.nstate} + {t.npar} * P[2] + k] += lb[{at + 43} + k];")
         L.append("        }")
         if dot:
             L.append(f"        eomc_narrow_{name}_bar_dot(ni, gn, dni, dgn, nb);")

@@ -77,14 +77,17 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         implicit["poses"], implicit["contacts"], implicit["pairs"] = poses, [], []
     pair_slopes = implicit["pairs"] if implicit is not None else None
     values, elastic, reach, pairs = {}, [], {}, []
-    # a pair with torsional/rolling friction (law.spin_moment) is inlined: the table's law has no moment
-    spinning = [ld for ld in others if isinstance(ld, PairLoad) and ld.spins]
-    if spinning and second:
-        raise ModelError(f"the contact {spinning[0].name}: torsional and rolling friction between two bodies "
-                         f"have no second-order derivatives (hvp, hess_id) yet")
-    table = [ld for ld in others if isinstance(ld, PairLoad) and not ld.spins] if _pairs.PAIR_TABLE else []
+    # a pair with torsional/rolling friction (law.spin_moment) goes into the table as the others do (its
+    # law then the spinning law routine, table.Table.spin); inlined, it has no second derivatives
+    table = [ld for ld in others if isinstance(ld, PairLoad)] if _pairs.PAIR_TABLE else []
     if len(table) < _pairs.TABLE_FROM and not second:   # a few pairs stay inlined (pairs.TABLE_FROM: why)
         table = []
+    in_table = set(map(id, table))
+    spinning = [ld for ld in others if isinstance(ld, PairLoad) and ld.spins and id(ld) not in in_table]
+    if spinning and second:
+        raise ModelError(f"the contact {spinning[0].name}: torsional and rolling friction between two bodies "
+                         f"have no second-order derivatives (hvp, hess_id) outside the pairs' table "
+                         f"(pairs.PAIR_TABLE)")
     table_energy = {}       # the table's points' elastic energy as its slopes loop sums it (NAME_implicit's)
     if table:               # every pair in one table-driven call (compiler/contact/table.py)
         wrenches = [] if analytic is not None else None
@@ -94,7 +97,6 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         if analytic is not None and not spinning:   # the analytic jac_x takes their tangents (tree/analytic.py);
             analytic["pairs"] = wrenches            # with inlined pairs beside the table: the tangent path
             analytic["pair_call"] = info
-    in_table = set(map(id, table))
     inlined = [ld for ld in others if isinstance(ld, PairLoad) and id(ld) not in in_table]
     if implicit is not None:    # the pair points NAME_implicit holds (implicit_metadata lists them), in
         # the order their slopes are appended: the table's, then the inlined ones' (INLINE_SLOPES)

@@ -174,61 +174,92 @@ SCENE = """<mujoco><option timestep="0.001"/><worldbody>
 </worldbody></mujoco>"""
 
 
-def _scene(tmp_path, table_from, monkeypatch):
+def _scene(tmp_path, table_from, monkeypatch, functions=("rhs", "jac_x", "vjp", "outputs", "events")):
     from eomc.compiler.contact import pairs
     monkeypatch.setattr(pairs, "TABLE_FROM", table_from)
     path = tmp_path / f"scene{table_from}.xml"
     path.write_text(SCENE.format(r=R, m=M, mut=MUT, mur=MUR))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        return eomc.compile(str(path), functions=("rhs", "jac_x", "outputs", "events"), cache_dir=tmp_path / "cache")
+        return eomc.compile(str(path), functions=functions, cache_dir=tmp_path / "cache")
 
 
-def test_body_body_pair_spins_down_and_mixes_with_the_table(tmp_path, monkeypatch):
-    """Ball a (condim 6) on the table (a box: a body-body pair, not a plane) spins down at μ_t m g/I as
-    on the plane; its three pairs are inlined while b's and c's go through the pair table
-    (TABLE_FROM = 2 here): rhs and jac_x equal those of the all-inlined build (1e-12), and jac_x
-    matches central differences with a and b pressed together, turning against each other."""
-    mixed = _scene(tmp_path, 2, monkeypatch)
-    inline = _scene(tmp_path, 100, monkeypatch)
-    p = np.array(mixed.param_defaults, dtype=float)
-    P = dict(zip(mixed.param_names, p))
-    assert {"mut_table__ga", "mur_table__ga", "mut_ga__gb", "mur_ga__gb"} <= set(P)
-    assert not any(n.startswith("mut_") and "ga" not in n for n in P)
-    S = list(mixed.state_names)
+def _scene_states(model):
+    """(x: the three balls resting on the table, a spinning at 10 rad/s; y: a pressed into b, a spinning
+    and rolling, b turning the other way), the parameters and their dict."""
+    p = np.array(model.param_defaults, dtype=float)
+    P = dict(zip(model.param_names, p))
+    S = list(model.state_names)
     x = np.zeros(len(S))
-    x[list(mixed.quaternions)] = 1.0         # upright (the MJCF default: each quaternion's w)
+    x[list(model.quaternions)] = 1.0         # upright (the MJCF default: each quaternion's w)
     for body, xy in (("a", (0, 0)), ("b", (0.25, 0)), ("c", (0, 0.25))):
         x[S.index(f"q_f{body}_x")], x[S.index(f"q_f{body}_y")] = xy
         x[S.index(f"q_f{body}_z")] = R - (M * G / P[f"k_table__g{body}"]) ** (2 / 3)
     x[S.index("u_fa_wz")] = 10.0
-    res = mixed.simulate(x, (0, 0.15), p=p, method="radau", rtol=1e-10, atol=1e-12, n_points=16)
-    w = res["u_fa_wz"]
-    mid = (w > 2) & (w < 8)
-    assert np.polyfit(res.t[mid], w[mid], 1)[0] == pytest.approx(-MUT * M * G / I, rel=2e-3)
-    # a and b pressed together (a shifted into b), a spinning and rolling, b turning the other way
     y = x.copy()
     y[S.index("q_fa_x")] += 0.05 + 1e-4
     for name, value in (("u_fa_wx", 1.0), ("u_fa_wy", -2.0), ("u_fa_wz", 3.0), ("u_fb_wz", -1.5), ("u_fb_wy", 0.5),
                         ("u_fa_vx", 0.1), ("u_fb_vy", -0.2)):
         y[S.index(name)] = value
+    return x, y, p, P
+
+
+def test_body_body_pair_spins_down_in_the_table_as_inlined(tmp_path, monkeypatch):
+    """Ball a (condim 6) on the table (a box: a body-body pair, not a plane) spins down at μ_t m g/I as
+    on the plane.  With TABLE_FROM = 2 its three pairs go through the pair table with b's and c's
+    (whose law is then the spinning law routine, 0 torsion and rolling for the others): rhs, jac_x
+    (the analytic kernel's pair path) and vjp equal those of the all-inlined build (1e-12), and
+    jac_x matches central differences with a and b pressed together, turning against each other."""
+    table = _scene(tmp_path, 2, monkeypatch)
+    inline = _scene(tmp_path, 100, monkeypatch)
+    c_table, c_inline = (m.source_path.read_text() for m in (table, inline))
+    assert "eomc_pair_law_spin(" in c_table and "eomc_pairs(" in c_table
+    assert "eomc_pairs(" not in c_inline and "eomc_pair_law_spin" not in c_inline
+    x, y, p, P = _scene_states(table)
+    assert {"mut_table__ga", "mur_table__ga", "mut_ga__gb", "mur_ga__gb"} <= set(P)
+    assert not any(n.startswith("mut_") and "ga" not in n for n in P)
+    res = table.simulate(x, (0, 0.15), p=p, method="radau", rtol=1e-10, atol=1e-12, n_points=16)
+    w = res["u_fa_wz"]
+    mid = (w > 2) & (w < 8)
+    assert np.polyfit(res.t[mid], w[mid], 1)[0] == pytest.approx(-MUT * M * G / I, rel=2e-3)
+    lam = np.random.default_rng(3).standard_normal(table.nx)
     for state in (x, y):
-        fm, fi = mixed.rhs(0, state, p), inline.rhs(0, state, p)
+        fm, fi = table.rhs(0, state, p), inline.rhs(0, state, p)
         assert np.abs(fm - fi).max() <= 1e-12 * max(1.0, np.abs(fi).max())
-        Jm, Ji = mixed.jacobian(0, state, p), inline.jacobian(0, state, p)
+        Jm, Ji = table.jacobian(0, state, p), inline.jacobian(0, state, p)
         assert np.abs(Jm - Ji).max() <= 1e-12 * max(1.0, np.abs(Ji).max())
+        (_, gm, pm), (_, gi, pi) = table.vjp(0, state, lam, p), inline.vjp(0, state, lam, p)
+        assert np.abs(gm - gi).max() <= 1e-12 * max(1.0, np.abs(gi).max())
+        assert np.abs(pm - pi).max() <= 1e-12 * max(1.0, np.abs(pi).max())
     h = 1e-7
-    fd = np.column_stack([(mixed.rhs(0, y + h * e, p) - mixed.rhs(0, y - h * e, p)) / (2 * h) for e in np.eye(len(y))])
-    J = mixed.jacobian(0, y, p)
+    fd = np.column_stack([(table.rhs(0, y + h * e, p) - table.rhs(0, y - h * e, p)) / (2 * h) for e in np.eye(len(y))])
+    J = table.jacobian(0, y, p)
     assert np.abs(J - fd).max() < 1e-5 * max(1.0, np.abs(fd).max())
 
 
-def test_second_order_functions_refuse_a_spinning_pair(tmp_path):
-    """hvp differentiates the pairs twice through the table, whose law has no moment: refused, naming the pair."""
+def test_second_order_functions_take_a_spinning_pair_through_the_table(tmp_path, monkeypatch):
+    """hvp differentiates the pairs twice through the table (every pair, whatever their number), whose
+    spinning law routine has its reverse sweep's tangent: hvp equals central differences of jac_x
+    with a and b pressed together and turning, and the spin moment is in it (the torsion's
+    parameter has a gradient).  Inlined pairs (no table) still refuse it, naming the pair."""
+    from eomc.compiler.contact import pairs
     from eomc.runtime.errors import ModelError
+    model = _scene(tmp_path, 100, monkeypatch, functions=("rhs", "jac_x", "vjp", "hvp"))
+    _, y, p, P = _scene_states(model)
+    rng = np.random.default_rng(5)
+    lam, v = rng.standard_normal(model.nx), rng.standard_normal(model.nx)
+    hv = model.hvp(0.0, y, lam, v, p=p)
+
+    def central(step):
+        return (model.jacobian(0, y + step * v, p) - model.jacobian(0, y - step * v, p)) / (2 * step)
+    fd = ((4 * central(5e-7) - central(1e-6)) / 3).T @ lam     # steps well inside the 1e-4 m overlaps
+    assert np.isfinite(hv).all() and np.abs(hv - fd).max() <= 1e-6 * np.abs(fd).max()
+    gp = dict(zip(model.param_names, model.vjp(0.0, y, lam, p=p)[2]))
+    assert gp["mut_ga__gb"] != 0.0 and gp["mur_ga__gb"] != 0.0
+    monkeypatch.setattr(pairs, "PAIR_TABLE", False)
     path = tmp_path / "one.xml"
     path.write_text(SCENE.format(r=R, m=M, mut=MUT, mur=MUR))
     with pytest.raises(ModelError, match="the contact table__ga: torsional and rolling friction between two bodies"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            eomc.compile(str(path), functions=("rhs", "hvp"), cache_dir=tmp_path / "cache")
+            eomc.compile(str(path), functions=("rhs", "hvp"), cache_dir=tmp_path / "cache2")
