@@ -15,10 +15,10 @@ made the humanoid's default function set 44 s CPU against 23 s without self-pair
 The call's inputs (one array) are what varies per call: per moving body that holds a pair's shape
 its origin, world -> body rotation (rows), ω and origin velocity (body components: the law
 routine's body layout, .narrow.BODY_INPUTS), per shape its offset from its body's origin (body
-frame; a world shape's centre), per pair the law's k, c, μ, v_s -- and μ_t, μ_r, ρ when a pair of
-the table has torsional or rolling friction (MJCF condim 4, 6: :attr:`Table.spin`; every pair's law
-is then the spinning law routine, .narrow.LAW_SPIN_RID, with 0, 0, 1 for a pair without them, whose
-moment is ±0).  Why in the table: such pairs were inlined one by one, and dm_control's dog (condim-6
+frame; a world shape's centre), per pair the law's k, c, μ, v_s, then per pair with torsional or
+rolling friction (MJCF condim 4, 6: :attr:`Table.spins`) its μ_t, μ_r, ρ.  In a table with such a
+pair every pair's law is the spinning law routine (.narrow.LAW_SPIN_RID), with 0, 0, 1 for a pair
+without them (a moment of ±0).  Why in the table: such pairs were inlined one by one, and dm_control's dog (condim-6
 teeth against 120 capsules and ellipsoids) did not build in ten minutes.  What is fixed at build is in
 static tables: per shape its body, rotation and size, per pair its two shapes, margin and the
 square of its broad-phase reach.  The function
@@ -91,8 +91,7 @@ __all__ = ["DEPTHS_POSITIVE", "PairTableCall", "PairTableOut", "PairTableKernelT
            "reads_depths_positive_only", "table_of"]
 
 TAPE_ROOM = 4096         # doubles of the pairs' routine tapes a taped call keeps (pairs in contact; see _loop)
-LAW_PARAMS = ("k", "c", "mu", "vs")   # a pair's law parameters in the loop's inputs, then (a spinning
-_SPIN_NONE = {"mut": sm.S.Zero, "mur": sm.S.Zero, "rho": sm.S.One}   # table) nw.SPIN_PARAMS or these
+LAW_PARAMS = ("k", "c", "mu", "vs")   # per pair in the loop's inputs; then per spinning pair nw.SPIN_PARAMS
 POINT_OUTPUTS = 9        # F_n, friction (3), δ, clip, p (3): PairValue kinds 0..8
 # the "slopes" variant's outputs per contact point, after the others: NAME_implicit's contact entry
 # (compiler/tree/lower.implicit_layout): δ (0 where the broad phase skips the pair), p (3; 0 there),
@@ -112,18 +111,21 @@ _TABLES = {}             # table id -> Table (this process's lowering; the C is 
 class Table:
     """What the C function is generated from: the shapes, the pairs, the gathered bodies."""
 
-    def __init__(self, bodies, shapes, pairs, spin=False):
+    def __init__(self, bodies, shapes, pairs, spins=()):
         self.bodies = bodies     # tree body indices, in input order
         self.shapes = shapes     # [(gathered body index or -1, kind, rot 9, size 3)]
         self.pairs = pairs       # [(rid, shape a, shape b, margin, reach², first point)]
-        # a pair with torsional or rolling friction: every pair's law is the spinning law routine,
-        # with its 3 more parameters (nw.SPIN_PARAMS; 0, 0, 1 where a pair has none)
-        self.spin = spin
-        self.law = nw.LAW_SPIN_RID if spin else nw.LAW_RID
-        self.npar = len(LAW_PARAMS) + (len(nw.SPIN_PARAMS) if spin else 0)    # law parameters per pair
+        # the pairs with torsional or rolling friction (indices into pairs): where there are any, every
+        # pair's law is the spinning law routine, theirs with their 3 more parameters (nw.SPIN_PARAMS,
+        # after every pair's 4 in the inputs: the 4-blocks stay the parameters' own consecutive slots
+        # where they were), the others with 0, 0, 1 (a moment of ±0)
+        self.spins = tuple(spins)
+        self.spin = bool(self.spins)
+        self.law = nw.LAW_SPIN_RID if self.spin else nw.LAW_RID
         self.npoints = sum(len(_parts(rid)) for rid, *_ in pairs)
         self.nstate = 18 * len(bodies) + 3 * len(shapes)
-        self.ninput = self.nstate + self.npar * len(pairs)
+        self.spin_at = self.nstate + len(LAW_PARAMS) * len(pairs)     # the spinning pairs' parameters
+        self.ninput = self.spin_at + len(nw.SPIN_PARAMS) * len(self.spins)
         self.nwrench = 6 * len(bodies)
         self.noutput = self.nwrench + POINT_OUTPUTS * self.npoints
         law = nw.routine_outputs(self.law) + len(nw.tape_of(self.law))
@@ -137,7 +139,7 @@ class Table:
         self.energy_at = self.noutput + SLOPE_OUTPUTS * self.npoints
 
     def key(self):
-        return (tuple(self.bodies), tuple(self.shapes), tuple(self.pairs), self.room, self.spin)
+        return (tuple(self.bodies), tuple(self.shapes), tuple(self.pairs), self.room, self.spins)
 
 
 def _parts(rid):
@@ -181,7 +183,7 @@ def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, slopes=None
             offsets.append([rename(x, what) if isinstance(x, sm.Basic) else _num(x) for x in s.offset])
         return shape_ids[key]
     point = 0
-    bases = {}
+    bases, spins, extra = {}, [], []
     for base, ld in sorted(first.items()):
         what = f"the contact {ld.name}"
         ia, ib = shape_index(ld.a, what), shape_index(ld.b, what)
@@ -191,10 +193,11 @@ def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, slopes=None
         pairs.append((rid, ia, ib, float(ld.margin), reach * reach, point))
         bases[base] = point
         point += len(_parts(rid))
-        params.append([rename(ld.params[k], what) for k in LAW_PARAMS])
-        params[-1] += [rename(ld.params[k], what) if k in ld.params else _SPIN_NONE[k] for k in nw.SPIN_PARAMS]
-    spin = any(ld.spins for ld in first.values())
-    params = [x for row in params for x in (row if spin else row[:len(LAW_PARAMS)])]
+        params += [rename(ld.params[k], what) for k in LAW_PARAMS]
+        if ld.spins:                        # (a missing one: no such part, .law.spin_moment)
+            spins.append(len(pairs) - 1)
+            extra += [rename(ld.params[k], what) if k in ld.params else sm.S.Zero for k in nw.SPIN_PARAMS]
+    params += extra
     inputs = []
     for i in gathered:
         R = poses.world_to_body(i)
@@ -203,7 +206,7 @@ def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, slopes=None
     for off in offsets:
         inputs += off
     inputs += params
-    table = Table(tuple(gathered), tuple(shapes), tuple(pairs), spin)
+    table = Table(tuple(gathered), tuple(shapes), tuple(pairs), spins)
     tid = next((k for k, t in _TABLES.items() if t.key() == table.key()), len(_TABLES))
     _TABLES.setdefault(tid, table)
     call = rec.let(PairTableCall(sm.Integer(tid), sm.S.Zero, *[rec.let(x) for x in inputs]))
@@ -600,6 +603,11 @@ def _tables(t):
                 + ", ".join("{" + ", ".join(_fmt(x) for x in s[2]) + "}" for s in t.shapes) + "};")
     rows.append(f"static const double eomc_pairs_ssize[{len(t.shapes)}][3] = {{"
                 + ", ".join("{" + ", ".join(_fmt(x) for x in s[3]) + "}" for s in t.shapes) + "};")
+    if t.spin:      # per pair its place among the spinning pairs (-1: none), and a non-spinning pair's 3
+        index = {q: j for j, q in enumerate(t.spins)}
+        rows.append(f"static const int eomc_pairs_spin[{len(t.pairs)}] = {{"
+                    + ", ".join(str(index.get(q, -1)) for q in range(len(t.pairs))) + "};")
+        rows.append("static const double eomc_pairs_nospin[3] = {0.0, 0.0, 1.0};   /* mu_t, mu_r, rho */")
     for rid in sorted({p[0] for p in t.pairs}):
         mine = [(q, p) for q, p in enumerate(t.pairs) if p[0] == rid]
         name = "%s_%s" % nw.kinds_of(rid)
@@ -738,12 +746,14 @@ def _loop(t, mode, energy=False):
         L.append("            const double *pp = np + 7 * m;")
         L.append("            const int ba = eomc_pairs_sbody[P[0]], bb = eomc_pairs_sbody[P[1]];")
         L.append(f"            const double *A = ba < 0 ? zero : in + 18 * ba, *B = bb < 0 ? zero : in + 18 * bb;")
-        L.append(f"            const double *par = pars + {t.npar} * P[2];")
+        L.append("            const double *par = pars + 4 * P[2];")
+        L += _spin_lines(t, "sp", "pars")
         L.append(f"            double *po = out + {t.nwrench} + {POINT_OUTPUTS} * (P[3] + m);")
         if dot:
             L.append("            const double *pd = nd + 7 * m;")
             L.append(f"            const double *dA = ba < 0 ? zero : din + 18 * ba, *dB = bb < 0 ? zero : din + 18 * bb;")
-            L.append(f"            const double *dp = dpar ? dpar + {t.npar} * P[2] : zero;")
+            L.append("            const double *dp = dpar ? dpar + 4 * P[2] : zero;")
+            L += _spin_lines(t, "dsp", "dpar")
             L.append(f"            double ll[{nlaw + nlt}], lo[{nlaw}];")
             L.append(f"            const double *lt = np != nl ? np + {nout + ntape} + {nlaw + nlt} * m : ll;")
             src, tgt = "pd", "lo"
@@ -769,10 +779,10 @@ def _loop(t, mode, energy=False):
             L.append(f"            if (full == 2 && -pp[6] > {_fmt(BROAD_PAD)}) {{ po[5] = -pp[6]; continue; }}")
         if not dot and not tape and not slopes:
             L.append(f"            if (full == {DEPTHS}) continue;   /* NAME_energy: the point's δ alone */")
-        largs = ", ".join(_law_args("pp", "A", "B", "par", t.npar))
+        largs = ", ".join(_law_args("pp", "A", "B", "par", t.spin and "sp"))
         if dot:
             L.append(f"            if (lt == ll) {law}_tape({largs}, ll);")
-            dl = ", ".join(_law_args("pd", "dA", "dB", "dp", t.npar))
+            dl = ", ".join(_law_args("pd", "dA", "dB", "dp", t.spin and "dsp"))
             L.append(f"            {law}_dot(&lt[{nlaw}], {dl}, lo);")
         elif tape:
             L.append("            on = 1;")
@@ -1028,9 +1038,25 @@ def _narrow_dargs():
             + [f"dcen[3 * P[1] + {k}]" for k in range(3)] + [f"dax[9 * P[1] + {k}]" for k in range(9)])
 
 
-def _law_args(p, a, b, par, npar=4):
+def _law_args(p, a, b, par, spin=None):
+    """The law routine's C arguments: the point's p, n, δ, the bodies' inputs, the law's parameters
+    (``spin``: then the spinning law routine's 3 more, from that pointer)."""
     return ([f"{p}[{k}]" for k in range(7)] + [f"{a}[{k}]" for k in range(18)]
-            + [f"{b}[{k}]" for k in range(18)] + [f"{par}[{k}]" for k in range(npar)])
+            + [f"{b}[{k}]" for k in range(18)] + [f"{par}[{k}]" for k in range(4)]
+            + ([f"{spin}[{k}]" for k in range(len(nw.SPIN_PARAMS))] if spin else []))
+
+
+def _spin_lines(t, name, pars):
+    """In a spinning table's loops (t.spin), the pair's torsion and rolling parameters: pointer ``name``
+    into ``pars`` (its spinning pairs' block; a tangent's or bar's array of the inputs' layout, may be
+    0) or to eomc_pairs_nospin (0, 0, 1: no moment; its tangent is that of constants, read as 0 only
+    where the moment's factors are 0)."""
+    if not t.spin:
+        return []
+    at = t.spin_at - t.nstate
+    none = "zero" if pars != "pars" else "eomc_pairs_nospin"
+    guard = f"eomc_pairs_spin[P[2]] < 0" + ("" if pars == "pars" else f" || !{pars}")
+    return [f"            const double *{name} = {guard} ? {none} : {pars} + {at} + 3 * eomc_pairs_spin[P[2]];"]
 
 
 # --- the reverse sweep (vjp, hvp, hess_id) -------------------------------------------------------
@@ -1170,7 +1196,8 @@ def _bar_loop(t, dot):
         L.append("            const double *pp = np + 7 * m;")
         L.append("            const int ba = eomc_pairs_sbody[P[0]], bb = eomc_pairs_sbody[P[1]];")
         L.append("            const double *A = ba < 0 ? zero : in + 18 * ba, *B = bb < 0 ? zero : in + 18 * bb;")
-        L.append(f"            const double *par = pars + {t.npar} * P[2];")
+        L.append("            const double *par = pars + 4 * P[2];")
+        L += _spin_lines(t, "sp", "pars")
         L.append(f"            double lg[{nlo}], lb[{nlaw * (2 if dot else 1)}];")
         seeds = [("", "gn", "gw", "gp", "out", 0)] + ([("d", "dgn", "dgw", "dgp", "dout", nlaw)] if dot else [])
         for d, gn, gw, gp, o, at in seeds:     # the bars, then (dot) their tangents
@@ -1178,12 +1205,13 @@ def _bar_loop(t, dot):
             L.append(f"            {gn}[7 * m + 6] += {d}go[4];")
             L.append(f"            for (k = 0; k < 3; ++k) {gn}[7 * m + k] += {d}go[6 + k];")
         L.append("            if (!full && -pp[6] > 0) continue;")
-        L.append(f"            const double li[{nlaw}] = {{{', '.join(_law_args('pp', 'A', 'B', 'par', t.npar))}}};")
+        L.append(f"            const double li[{nlaw}] = {{{', '.join(_law_args('pp', 'A', 'B', 'par', t.spin and 'sp'))}}};")
         if dot:
             L.append("            const double *pd = nd + 7 * m;")
             L.append("            const double *dA = ba < 0 ? zero : din + 18 * ba, *dB = bb < 0 ? zero : din + 18 * bb;")
-            L.append(f"            const double *dp = dpar ? dpar + {t.npar} * P[2] : zero;")
-            L.append(f"            const double dli[{nlaw}] = {{{', '.join(_law_args('pd', 'dA', 'dB', 'dp', t.npar))}}};")
+            L.append("            const double *dp = dpar ? dpar + 4 * P[2] : zero;")
+            L += _spin_lines(t, "dsp", "dpar")
+            L.append(f"            const double dli[{nlaw}] = {{{', '.join(_law_args('pd', 'dA', 'dB', 'dp', t.spin and 'dsp'))}}};")
             L.append(f"            double dlg[{nlo}];")
         for d, gn, gw, gp, o, at in seeds:
             L.append("            for (k = 0; k < 6; ++k) {")
@@ -1200,7 +1228,10 @@ def _bar_loop(t, dot):
             L.append(f"            for (k = 0; k < 7; ++k) {gn}[7 * m + k] += lb[{at} + k];")
             L.append(f"            if (ba >= 0) for (k = 0; k < 18; ++k) {o}[18 * ba + k] += lb[{at + 7} + k];")
             L.append(f"            if (bb >= 0) for (k = 0; k < 18; ++k) {o}[18 * bb + k] += lb[{at + 25} + k];")
-            L.append(f"            for (k = 0; k < {t.npar}; ++k) {o}[{t.nstate} + {t.npar} * P[2] + k] += lb[{at + 43} + k];")
+            L.append(f"            for (k = 0; k < 4; ++k) {o}[{t.nstate} + 4 * P[2] + k] += lb[{at + 43} + k];")
+            if t.spin:
+                L.append(f"            if (eomc_pairs_spin[P[2]] >= 0) for (k = 0; k < 3; ++k) "
+                         f"{o}[{t.spin_at} + 3 * eomc_pairs_spin[P[2]] + k] += lb[{at + 47} + k];")
         L.append("        }")
         if dot:
             L.append(f"        eomc_narrow_{name}_bar_dot(ni, gn, dni, dgn, nb);")
