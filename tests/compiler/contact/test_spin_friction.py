@@ -237,6 +237,31 @@ def test_body_body_pair_spins_down_in_the_table_as_inlined(tmp_path, monkeypatch
     assert np.abs(J - fd).max() < 1e-5 * max(1.0, np.abs(fd).max())
 
 
+def test_a_condim_4_pair_in_the_table_has_torsion_alone(tmp_path, monkeypatch):
+    """Ball b with condim 4 (torsion, no rolling: its pairs' μ_r is 0 in the table's spinning
+    parameters) beside ball a's condim 6: the table build equals the all-inlined build in rhs and
+    jac_x, and b's pairs have a torsion parameter and no rolling one."""
+    scene = SCENE.replace('<geom name="gb" type="sphere" size=".1" mass="1"/>',
+                          f'<geom name="gb" type="sphere" size=".1" mass="1" condim="4" friction="1 {MUT} 0"/>')
+    built = []
+    for table_from in (2, 100):
+        from eomc.compiler.contact import pairs
+        monkeypatch.setattr(pairs, "TABLE_FROM", table_from)
+        path = tmp_path / f"four{table_from}.xml"
+        path.write_text(scene.format(r=R, m=M, mut=MUT, mur=MUR))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            built.append(eomc.compile(str(path), functions=("rhs", "jac_x"), cache_dir=tmp_path / "cache"))
+    table, inline = built
+    _, y, p, P = _scene_states(table)
+    assert "mut_table__gb" in P and "mur_table__gb" not in P
+    y[table.state_names.index("u_fb_wx")] = 2.0          # b rolls too: no moment from it
+    fm, fi = table.rhs(0, y, p), inline.rhs(0, y, p)
+    assert np.abs(fm - fi).max() <= 1e-12 * max(1.0, np.abs(fi).max())
+    Jm, Ji = table.jacobian(0, y, p), inline.jacobian(0, y, p)
+    assert np.abs(Jm - Ji).max() <= 1e-12 * max(1.0, np.abs(Ji).max())
+
+
 def test_second_order_functions_take_a_spinning_pair_through_the_table(tmp_path, monkeypatch):
     """hvp differentiates the pairs twice through the table (every pair, whatever their number), whose
     spinning law routine has its reverse sweep's tangent: hvp equals central differences of jac_x
