@@ -7,17 +7,18 @@ Usage: python benchmarks/spin_table_ab.py NEW_DIR OLD_DIR
 import sys, time, numpy as np, eomc
 a = eomc.load(sys.argv[1]); b = eomc.load(sys.argv[2])
 rng = np.random.default_rng(0)
-p = np.array(a.param_defaults, float); pb = np.array(b.param_defaults, float)
+p = np.array(a.param_defaults, float)
 assert list(a.param_names) == list(b.param_names) and list(a.state_names) == list(b.state_names)
 x0 = a.initial_state.copy()
-# states near the ball: put the ball at the quadruped's body, random speeds
 S = list(a.state_names)
+# the ball's q_ball_root_x/y/z onto the quadruped's q_root_x/y/z where the file has both (its pairs near)
+ball = [(k, S.index(n.replace("ball_root", "root"))) for k, n in enumerate(S)
+        if n in ("q_ball_root_x", "q_ball_root_y", "q_ball_root_z") and n.replace("ball_root", "root") in S]
 err_f = err_j = 0
 for i in range(20):
-    x = x0 + 0.05 * rng.standard_normal(a.nx)
-    for k, n in enumerate(S):
-        if n.startswith("q_ball_root") and n[-1] in "xyz" and "q" not in n[-2:]:
-            x[k] = x0[S.index(n.replace("ball_root", "root"))] if n.replace("ball_root","root") in S else x[k]
+    x = x0 + 0.05 * rng.standard_normal(a.nx)     # the file's initial state, perturbed
+    for k, j in ball:
+        x[k] = x0[j]
     x[list(a.quaternions)] = 1.0
     fa, fb = a.rhs(0, x, p), b.rhs(0, x, p)
     err_f = max(err_f, np.abs(fa - fb).max() / max(1, np.abs(fb).max()))

@@ -95,7 +95,7 @@ SLOPES_RID = LAW_RID + 1
 # law routine's and then the pair's μ_t, μ_r and ρ (0, 0 and 1 for a pair without them: its moment is
 # then ±0), its outputs the law routine's, the moment added to both wrenches.  Why a routine of its
 # own: such pairs were inlined one by one (the table's law had no moment), and dm_control's dog, whose
-# teeth are condim 6 against 120 capsules and ellipsoids, did not build in ten minutes.
+# teeth are condim 6 against ~120 shapes, did not get past generate in ten minutes.
 LAW_SPIN_RID = SLOPES_RID + 1
 SPIN_PARAMS = ("mut", "mur", "rho")
 LAW_SPIN_NPOSE = LAW_NPOSE + len(SPIN_PARAMS)
@@ -108,7 +108,8 @@ def routine_index(kind_a, kind_b):
 
 
 def is_law(rid):
-    """A routine of the law's inputs (the law routine, the slopes routine), not a narrow phase."""
+    """A routine of the law's inputs (the law routine, the slopes routine, the spinning law routine),
+    not a narrow phase."""
     return rid in (LAW_RID, SLOPES_RID, LAW_SPIN_RID)
 
 

@@ -18,8 +18,8 @@ routine's body layout, .narrow.BODY_INPUTS), per shape its offset from its body'
 frame; a world shape's centre), per pair the law's k, c, μ, v_s, then per pair with torsional or
 rolling friction (MJCF condim 4, 6: :attr:`Table.spins`) its μ_t, μ_r, ρ.  In a table with such a
 pair every pair's law is the spinning law routine (.narrow.LAW_SPIN_RID), with 0, 0, 1 for a pair
-without them (a moment of ±0).  Why in the table: such pairs were inlined one by one, and dm_control's dog (condim-6
-teeth against 120 capsules and ellipsoids) did not build in ten minutes.  What is fixed at build is in
+without them (a moment of ±0).  Why in the table: such pairs were inlined one by one, and dm_control's
+dog (condim-6 teeth against ~120 shapes) did not get past generate in ten minutes.  What is fixed at build is in
 static tables: per shape its body, rotation and size, per pair its two shapes, margin and the
 square of its broad-phase reach.  The function
 
@@ -194,9 +194,10 @@ def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, slopes=None
         bases[base] = point
         point += len(_parts(rid))
         params += [rename(ld.params[k], what) for k in LAW_PARAMS]
-        if ld.spins:                        # (a missing one: no such part, .law.spin_moment)
+        if ld.spins:                        # condim 4 has no rolling: μ_r 0 (no such part, .law.spin_moment)
             spins.append(len(pairs) - 1)
-            extra += [rename(ld.params[k], what) if k in ld.params else sm.S.Zero for k in nw.SPIN_PARAMS]
+            extra += [rename(ld.params[k], what) if k in ld.params or k == "rho" else sm.S.Zero
+                      for k in nw.SPIN_PARAMS]
     params += extra
     inputs = []
     for i in gathered:
@@ -753,7 +754,7 @@ def _loop(t, mode, energy=False):
             L.append("            const double *pd = nd + 7 * m;")
             L.append(f"            const double *dA = ba < 0 ? zero : din + 18 * ba, *dB = bb < 0 ? zero : din + 18 * bb;")
             L.append("            const double *dp = dpar ? dpar + 4 * P[2] : zero;")
-            L += _spin_lines(t, "dsp", "dpar")
+            L += _spin_lines(t, "dsp", "dpar", tangent=True)
             L.append(f"            double ll[{nlaw + nlt}], lo[{nlaw}];")
             L.append(f"            const double *lt = np != nl ? np + {nout + ntape} + {nlaw + nlt} * m : ll;")
             src, tgt = "pd", "lo"
@@ -1046,16 +1047,16 @@ def _law_args(p, a, b, par, spin=None):
             + ([f"{spin}[{k}]" for k in range(len(nw.SPIN_PARAMS))] if spin else []))
 
 
-def _spin_lines(t, name, pars):
+def _spin_lines(t, name, pars, tangent=False):
     """In a spinning table's loops (t.spin), the pair's torsion and rolling parameters: pointer ``name``
-    into ``pars`` (its spinning pairs' block; a tangent's or bar's array of the inputs' layout, may be
-    0) or to eomc_pairs_nospin (0, 0, 1: no moment; its tangent is that of constants, read as 0 only
-    where the moment's factors are 0)."""
+    into ``pars`` (the inputs' parameters; its spinning pairs' block) or, for a pair without them, to
+    eomc_pairs_nospin (0, 0, 1: no moment).  ``tangent``: ``pars`` is the parameters' tangents (may be
+    0), and a pair without them reads zeros (constants)."""
     if not t.spin:
         return []
     at = t.spin_at - t.nstate
-    none = "zero" if pars != "pars" else "eomc_pairs_nospin"
-    guard = f"eomc_pairs_spin[P[2]] < 0" + ("" if pars == "pars" else f" || !{pars}")
+    none = "zero" if tangent else "eomc_pairs_nospin"
+    guard = "eomc_pairs_spin[P[2]] < 0" + (f" || !{pars}" if tangent else "")
     return [f"            const double *{name} = {guard} ? {none} : {pars} + {at} + 3 * eomc_pairs_spin[P[2]];"]
 
 
@@ -1210,7 +1211,7 @@ def _bar_loop(t, dot):
             L.append("            const double *pd = nd + 7 * m;")
             L.append("            const double *dA = ba < 0 ? zero : din + 18 * ba, *dB = bb < 0 ? zero : din + 18 * bb;")
             L.append("            const double *dp = dpar ? dpar + 4 * P[2] : zero;")
-            L += _spin_lines(t, "dsp", "dpar")
+            L += _spin_lines(t, "dsp", "dpar", tangent=True)
             L.append(f"            const double dli[{nlaw}] = {{{', '.join(_law_args('pd', 'dA', 'dB', 'dp', t.spin and 'dsp'))}}};")
             L.append(f"            double dlg[{nlo}];")
         for d, gn, gw, gp, o, at in seeds:
