@@ -842,6 +842,26 @@ def _nonfinite_events(model, a, stats, x):
             f"{'are' if len(bad) > 1 else 'is'} not finite {where}")
 
 
+def _nonfinite_source(model, a, stats, x):
+    """'; ...' naming what the model makes non-finite at the failed run's last state (runtime/
+    nonfinite.py), or '' when nothing can be said there."""
+    from .nonfinite import nonfinite_source
+    t = float(stats["t"])
+    try:
+        r = _input_at(model, a, t, x)
+    except Exception:       # noqa: BLE001 -- naming is a courtesy; the failure is already reported
+        return ""
+    step = None
+    if a["method"] in ("rk4", "implicitfast") and not model.ninput:     # the same step, taken again
+        h = float(a["h0"])
+
+        def step():
+            res = simulate(model, x, (t, t + h), p=a["p"][:model.nparam], method=a["method"], dt=h, events=False,
+                           switching=False, raise_on_failure=False, t_eval=[t + h])
+            return res.status, res.x_final
+    return nonfinite_source(model, a["method"], t, x, a["p"], r, step)
+
+
 def _input_at(model, a, t, x):
     return applied_inputs(model, a)(t, x) if model.ninput else np.zeros(0)
 
@@ -1174,6 +1194,8 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
     message = "ok" if status == 0 else failure_message(model, method, stats, x_last, a.get("p"))
     if status == NONFINITE_STATUS and ev is not None and np.all(np.isfinite(x_last)):
         message += _nonfinite_events(model, a, stats, x_last)
+    if status == NONFINITE_STATUS and "not finite" not in message:
+        message += _nonfinite_source(model, a, stats, x_last)
     if status == 6:     # out of steps: say how many were allowed, and whence
         rule = (f": the default for a run with ground contacts, {CONTACT_STEPS_PER_S} per simulated second"
                 if a.get("max_steps_default") and a["max_steps"] > MAX_STEPS else "")
