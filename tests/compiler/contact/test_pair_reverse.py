@@ -37,6 +37,16 @@ def _build(tmp_path, monkeypatch, tag, functions, **switches):
                             cache_dir=tmp_path / tag, progress=False)
 
 
+@pytest.fixture(scope="module")
+def table_limbs(tmp_path_factory):
+    """(model, its C): the limbs through the pair table (TABLE_FROM 1) with every function the table's
+    tests read -- one build for three tests (CI time: each build of it is ~10 s of gcc)."""
+    tmp = tmp_path_factory.mktemp("table")
+    with pytest.MonkeyPatch.context() as mp:
+        model = _build(tmp, mp, "table", SECOND + ("jvp",), PAIR_TABLE=True)
+    return model, next((tmp / "table").rglob("limbs.c")).read_text()
+
+
 def _states(model, n):
     """n states, the first of them with some self-pair pressed (asserted), the rest random."""
     names = list(model.output_names)
@@ -81,11 +91,10 @@ def _check_hess_id(model, x, rng):
     assert np.abs(H - fd).max() <= 1e-6 * np.abs(fd).max()        # measured ≤ 7e-8
 
 
-def test_through_the_pair_table(tmp_path, monkeypatch):
+def test_through_the_pair_table(table_limbs):
     """The table (the default for MJCF self-pairs): vjp by eomc_pairs_bar, hvp and hess_id by its
     tangent eomc_pairs_bar_dot, at pressed and apart states."""
-    model = _build(tmp_path, monkeypatch, "table", SECOND, PAIR_TABLE=True)
-    source = next((tmp_path / "table").rglob("limbs.c")).read_text()
+    model, source = table_limbs
     assert "eomc_pairs_bar(" in source and "eomc_pairs_bar_dot(" in source
     assert "eomc_narrow_capsule_capsule_bar(" in source and "eomc_pair_law_bar_dot(" in source
     rng = np.random.default_rng(0)
@@ -153,13 +162,13 @@ def test_vjp_through_called_routines(tmp_path, monkeypatch, switches):
         _check_vjp(model, x, rng)
 
 
-def test_adjoint_gradient_through_contacts_is_the_sensitivities(tmp_path, monkeypatch):
+def test_adjoint_gradient_through_contacts_is_the_sensitivities(table_limbs):
     """eomc.gradient (vjp through the table) of a terminal cost wᵀx(T) equals the forward
     sensitivities' dx(T)/dx0ᵀ w (1e-14 measured), on an RK4 run whose limbs press each other at
     every step (from the shallowest pressed state of _states', speeds scaled by 0.1: deeper, the
     stiff contact needs a smaller step than 1e-5 s)."""
     from eomc.runtime.adjoint import simulate_grid
-    model = _build(tmp_path, monkeypatch, "grad", ("rhs", "jac_x", "jac_p", "vjp", "outputs"), PAIR_TABLE=True)
+    model = table_limbs[0]
     names = list(model.output_names)
     depths = [i for i, k in enumerate(names) if k.startswith("depth_") and "__" in k]
 
@@ -183,23 +192,24 @@ def test_adjoint_gradient_through_contacts_is_the_sensitivities(tmp_path, monkey
 
 
 @pytest.mark.parametrize("table", [True, False])
-def test_jvp_through_pairs_builds_and_is_the_jacobians_product(tmp_path, monkeypatch, table):
+def test_jvp_through_pairs_builds_and_is_the_jacobians_product(tmp_path, monkeypatch, request, table):
     """jvp (forward sensitivities' call) on a tree with self-pairs, through the table and inlined:
     its C compiled (it did not before: the lanes over directions dropped the table tangent's output
     array, the parameter columns' function took that array and a compound literal's type for
     arguments), and J·d + Jp·dp at pressed and apart states, 1, 3 and 5 directions (the lanes'
     groups and a lone direction)."""
-    if not table:
+    if table:
+        model, source = request.getfixturevalue("table_limbs")
+    else:
         monkeypatch.setattr(pairs, "TABLE_FROM", 10 ** 6)
-    path = tmp_path / "limbs.xml"
-    path.write_text(LIMBS)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        if table:
-            monkeypatch.setattr(pairs, "TABLE_FROM", 1)
-        model = eomc.compile(MjcfModel(path, pairs=True), "limbs", functions=("rhs", "jac_x", "jac_p", "jvp", "outputs"),
-                             cache_dir=tmp_path / "c", progress=False)
-    source = next((tmp_path / "c").rglob("limbs.c")).read_text()
+        path = tmp_path / "limbs.xml"
+        path.write_text(LIMBS)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = eomc.compile(MjcfModel(path, pairs=True), "limbs",
+                                 functions=("rhs", "jac_x", "jac_p", "jvp", "outputs"), cache_dir=tmp_path / "c",
+                                 progress=False)
+        source = next((tmp_path / "c").rglob("limbs.c")).read_text()
     assert ("eomc_pairs_dot(" in source) == table
     rng = np.random.default_rng(3)
     for x in _states(model, 3):
