@@ -15,7 +15,14 @@ of its law's parameter set k, c, μ, v_s, r among the distinct sets (one per lin
 its points share its parameters), the sets an input array (p[] itself where they are consecutive
 slots).
 
-The function, per body:
+A body with points on several planes (an MJCF file's floor and tilted walls: dm_control's
+quadruped and dog have four walls) is one entry per plane, each in its plane's frame
+(:func:`plane_frame`: the entry's origin and world -> body rows are given rotated and shifted so its
+plane is z = 0); the loop below is written for z = 0 and its wrench comes out in body components
+either way; a point's friction output is turned back into world components outside it.  The slopes
+variant's records are world quantities, so it runs only where every plane is z = 0.
+
+The function, per entry (a body, or a body's points on one plane):
 
 1. its broad phase (as the straight-line rhs's guard, :func:`eomc.compiler.tree.contacts.body_guards`,
    with the box its offsets span): the lowest corner of its points' box in the world less its
@@ -85,11 +92,42 @@ def wanted(functions):
     return GROUND_TABLE and not (set(functions or ()) & _KEEPS)
 
 
+FLAT = ((0.0, 0.0, 1.0), 0.0)   # the plane z = 0: the default ground's and --contact's
+
+
+def plane_of(load):
+    """(normal, height) of a point's plane as floats, or None when they are not numbers (or the
+    normal is not a unit vector to rounding: the loop's frame needs one)."""
+    try:
+        n, h = tuple(float(x) for x in load.normal), float(sm.sympify(load.height))
+    except (TypeError, ValueError):
+        return None
+    return (n, h) if abs(sum(x * x for x in n) - 1.0) <= 1e-12 else None
+
+
 def eligible(load):
-    """A point the loop computes: a sphere (no ellipsoid), no torsional or rolling friction, on the
-    plane z = 0 (the default ground's and --contact's)."""
+    """A point the loop computes: a sphere (no ellipsoid), no torsional or rolling friction, on a
+    plane of numbers: z = 0 (the default ground's and --contact's) or any other (an MJCF file's
+    tilted walls: dm_control's quadruped and dog have four).  The loop runs in the plane's own
+    frame (:func:`plane_frame`)."""
     return (load.shape is None and not any(k in load.params for k in ("mut", "mur"))
-            and tuple(float(x) for x in load.normal) == (0.0, 0.0, 1.0) and sm.sympify(load.height) == 0)
+            and plane_of(load) is not None)
+
+
+def plane_frame(plane):
+    """The rows (e1, e2, n) of the world -> plane rotation Q of a plane (normal n, height h): a body
+    entry of the loop on that plane takes its origin as Q o - h e_z and its world -> body rows as
+    B Q^T, so the loop, written for z = 0, computes the plane's depths, forces and wrench (which it
+    turns into body components with those rows: the same as in the world).  e1: the world axis
+    least along n made orthogonal to it, e2 = n x e1 (as the fixed step's secant friction picks
+    them, runtime/c/eomc_fixedstep.c)."""
+    n = [float(x) for x in plane[0]]
+    m = min(range(3), key=lambda k: (abs(n[k]), k))
+    e1 = [(1.0 if k == m else 0.0) - n[m] * n[k] for k in range(3)]
+    size = sum(x * x for x in e1) ** 0.5
+    e1 = [x / size for x in e1]
+    e2 = [n[1] * e1[2] - n[2] * e1[1], n[2] * e1[0] - n[0] * e1[2], n[0] * e1[1] - n[1] * e1[0]]
+    return e1, e2, n
 
 
 class Table:
@@ -147,14 +185,21 @@ def _split(e):
     return 0.0, e
 
 
+def _dot(coeffs, xs):
+    """sum(c x) over the numbers ``coeffs`` (a plane frame's) with its zero terms left out."""
+    return sm.Add(*[x if c == 1.0 else c * x for c, x in zip(coeffs, xs) if c != 0.0])
+
+
 def gather(loads, rename):
-    """(bodies, points, shifts, params) of the table of ``loads`` [(contact index, load)]: the tree
-    bodies in order of their first point, per body its points (contact index, offset numbers, its
-    law's parameter set), per body the shift of its offsets, the distinct parameter sets flat
-    (k, c, μ, v_s, r each); None when a body's offsets do not split into numbers plus one shift."""
+    """(entries, points, shifts, params) of the table of ``loads`` [(contact index, load)]: its
+    entries (tree body, plane) in order of their first point (a body's points on one plane: the
+    plane z = 0's alone on a robot on the ground, one entry per body as before), per entry its
+    points (contact index, offset numbers, its law's parameter set), per entry the shift of its
+    offsets, the distinct parameter sets flat (k, c, μ, v_s, r each); None when a body's offsets do
+    not split into numbers plus one shift."""
     by_body = {}
     for index, load in loads:
-        by_body.setdefault(load.body, []).append((index, load))
+        by_body.setdefault((load.body, plane_of(load)), []).append((index, load))
     gathered, points, shifts, params, sets = [], [], [], [], {}
     for i, group in by_body.items():
         shift, pts = None, []
@@ -190,30 +235,43 @@ def lower_ground_table(loads, bodies, rec, v, rename, poses, twins, gathered=Non
     if gathered is None:
         return None
     gathered, points, shifts, params = gathered
-    inputs = []
-    for i, shift in zip(gathered, shifts):
+    inputs, frames = [], {}
+    for (i, plane), shift in zip(gathered, shifts):
         R = poses.world_to_body(i)
-        o = poses.origin(i)
-        inputs += list(o) + [x for row in R for x in row] + list(v[i][:3]) + list(v[i][3:]) + list(shift)
-    table = Table(tuple(gathered), tuple(points))
+        o = list(poses.origin(i))
+        if plane != FLAT:       # the loop in the plane's frame (plane_frame): o' = Q o - h e_z, B Q^T
+            Q = frames[plane] = plane_frame(plane)
+            o = [_dot(row, o) for row in Q]
+            o[2] = o[2] - plane[1]
+            R = [[_dot(axis, row) for axis in Q] for row in R]
+        inputs += o + [x for row in R for x in row] + list(v[i][:3]) + list(v[i][3:]) + list(shift)
+    table = Table(tuple(i for i, _ in gathered), tuple(points))
     tid = next((k for k, t in _TABLES.items() if t.key() == table.key()), len(_TABLES))
     _TABLES.setdefault(tid, table)
     call = rec.let(GroundCall(sm.Integer(tid), sm.S.Zero, sm.Integer(len(params)),
                               *[rec.let(x) for x in inputs], *params))
-    for j, i in enumerate(gathered):
+    for j, (i, plane) in enumerate(gathered):
         w = []
         for k in range(6):
-            _TWINS[(tid, 6 * j + k)] = twins.get(("wrench", i, k), sm.S.Zero)
+            _TWINS[(tid, 6 * j + k)] = twins.get(("wrench", (i, plane), k), sm.S.Zero)
             w.append(rec.let(GroundOut(call, sm.Integer(tid), sm.Integer(6 * j + k))))
         old = bodies[i].fext or [0] * 6
         bodies[i].fext = [old[k] + x for k, x in enumerate(w)]
     values, place = {}, table.place()
     rank = {index: k for k, index in enumerate(sorted(index for index, _ in loads))}
-    for index, _ in loads:
+    for index, load in loads:
         at = table.nwrench + PER_POINT * place[index]
+        Q = frames.get(plane_of(load))
         for kind in range(PER_POINT):
-            _TWINS[(tid, at + kind)] = twins.get((index, kind), sm.S.Zero)
+            twin = twins.get((index, kind), sm.S.Zero)
+            if Q is not None and kind in (1, 2, 3):     # the loop's friction: plane components
+                twin = _dot(Q[kind - 1], [twins.get((index, 1 + k), sm.S.Zero) for k in range(3)])
+            _TWINS[(tid, at + kind)] = twin
             values[(index, kind)] = GroundOut(call, sm.Integer(tid), sm.Integer(at + kind))
+        if Q is not None:       # the world's friction components: Q^T (the plane's)
+            plane_ft = [values[(index, 1 + r)] for r in range(3)]
+            for k in range(3):
+                values[(index, 1 + k)] = _dot([Q[r][k] for r in range(3)], plane_ft)
         for kind, base, size in (("jac", table.jac_base, JAC_RECORD), ("imp", table.imp_base, IMP_RECORD)):
             at = base + size * rank[index]      # the records in the contacts' order
             values[(index, kind)] = [GroundOut(call, sm.Integer(tid), sm.Integer(at + k)) for k in range(size)]

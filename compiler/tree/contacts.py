@@ -123,9 +123,10 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     # every contact in the loop, in their order: jac_x's block G and NAME_implicit's contact entries
     # are the slopes variant's records (ground_table.ground_into), and SymPy forms no point's K and C
     slopes_loop = (bool(looped) and gt.SLOPES_TABLE and len(looped) == len(contacts)
+                   and all(gt.plane_of(load) == gt.FLAT for load in contacts)   # (records: the world's)
                    and (implicit is not None or analytic is not None))
     records = []        # (contact index, its place in implicit["contacts"], in analytic["contacts"])
-    on_table, twins = {}, {}   # the loop's bodies' straight-line wrench terms; its outputs' twins
+    on_table, twins = {}, {}   # the loop's (body, plane)s' straight-line wrench terms; its outputs' twins
     for index, load in enumerate(contacts):
         i = load.body
         what = f"contact {load.name} on body {tree.bodies[i].name}"
@@ -156,7 +157,8 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         if spin is not None:        # torsional/rolling friction (law.spin_moment): a pure moment
             m_b = rec.vec(poses.to_body(i, spin))
             n_b = [n_b[k] + m_b[k] for k in range(3)]
-        pushed = (on_table if index in looped else loads_on).setdefault(i, [[] for _ in range(6)])
+        pushed = (on_table.setdefault((i, gt.plane_of(load)), [[] for _ in range(6)]) if index in looped
+                  else loads_on.setdefault(i, [[] for _ in range(6)]))
         for k, x in enumerate(n_b + f_b):
             pushed[k].append(x)
         slopes = ()
@@ -199,9 +201,9 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         if energy is not None:      # the law's elastic part k δ₊^(3/2) stores k δ₊^(5/2) / (5/2)
             elastic.append(forces.parts["elastic"] * forces.parts["dpos"] / (EXPONENT + 1))
     if looped:      # the loop's points (compiler/contact/ground_table.py)
-        for i, pushed in on_table.items():
+        for entry, pushed in on_table.items():
             for k, terms in enumerate(pushed):
-                twins[("wrench", i, k)] = rec.let(sm.Add(*terms))
+                twins[("wrench", entry, k)] = rec.let(sm.Add(*terms))
         got = gt.lower_ground_table([(index, contacts[index]) for index in sorted(looped)], bodies, rec, v,
                                     rename, poses, twins, gathered)
         for index, at_imp, at_jac in records if got is not None else ():
@@ -215,7 +217,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
                                                 [g[10 + 3 * r:13 + 3 * r] for r in range(3)],
                                                 [g[19 + 3 * r:22 + 3 * r] for r in range(3)], None)
         if got is None:     # offsets the table cannot hold: straight-line, as before
-            for i, pushed in on_table.items():
+            for (i, _), pushed in on_table.items():
                 mine = loads_on.setdefault(i, [[] for _ in range(6)])
                 for k, terms in enumerate(pushed):
                     mine[k] += terms
