@@ -19,6 +19,7 @@ __all__ = ["nonfinite_source"]
 
 _INSIDE = threading.local()     # the step taken again must not explain its own failure again
 _NAMED = 4                      # entries named per function; the rest counted
+NONFINITE = 3                   # EOMC_NONFINITE: a generated function's own finiteness check
 
 
 def _call(model, name, t, x, p, r, size):
@@ -92,12 +93,16 @@ def nonfinite_source(model, method, t, x, p, r, step=None):
         return ""
     try:
         got = _call(model, "rhs", t, x, p, r, model.nx)
+        if got is not None and got[0] not in (0, NONFINITE):
+            return ""       # another failure there (a singular mass matrix): its own status says it
         if got is not None and not np.all(np.isfinite(got[1])):
             names = [f"{n}'" for n, v in zip(model.state_names, got[1]) if not np.isfinite(v)]
             return f"; at that state the rhs is not finite: {_listed(names)}"
         info = model.metadata.get("implicit")
         if method == "implicitfast" and info and "implicit" in getattr(model, "functions", ()):
             got = _call(model, "implicit", t, x, p, r, info["layout"]["size"])
+            if got is not None and got[0] not in (0, NONFINITE):
+                return ""
             if got is not None and not np.all(np.isfinite(got[1])):
                 return (f"; at that state the implicit step's terms (NAME_implicit) are not finite: "
                         f"{_implicit_names(model, np.flatnonzero(~np.isfinite(got[1])))}")
