@@ -15,28 +15,13 @@ import warnings
 
 import numpy as np
 
+from .generated_call import call_generated
+
 __all__ = ["nonfinite_source"]
 
 _INSIDE = threading.local()     # the step taken again must not explain its own failure again
 _NAMED = 4                      # entries named per function; the rest counted
 NONFINITE = 3                   # EOMC_NONFINITE: a generated function's own finiteness check
-
-
-def _call(model, name, t, x, p, r, size):
-    """(status, out) of the C function NAME_<name>(t, x, p, r, out, work), or None without it."""
-    ffi = model.ffi
-    try:
-        fp = ffi.addressof(model.model_lib, f"{model.name}_{name}")
-    except (AttributeError, KeyError, ffi.error):
-        return None
-    out = np.full(size, np.nan)
-    work = np.zeros(max(model.work_size, 1) + 1)
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    pp = np.ascontiguousarray(np.append(np.asarray(p, dtype=np.float64)[:model.nparam], 0.0))
-    rr = np.ascontiguousarray(np.append(np.asarray(r, dtype=np.float64), 0.0))
-    buf = lambda a: ffi.from_buffer("double[]", a)      # noqa: E731
-    status = fp(float(t), buf(x), buf(pp), buf(rr) if model.ninput else ffi.NULL, buf(out), buf(work))
-    return status, out
 
 
 def _listed(names):
@@ -92,7 +77,7 @@ def nonfinite_source(model, method, t, x, p, r, step=None):
     if getattr(_INSIDE, "on", False) or not np.all(np.isfinite(x)):
         return ""
     try:
-        got = _call(model, "rhs", t, x, p, r, model.nx)
+        got = call_generated(model, "rhs", t, x, p, r, model.nx)
         if got is not None and got[0] not in (0, NONFINITE):
             return ""       # another failure there (a singular mass matrix): its own status says it
         if got is not None and not np.all(np.isfinite(got[1])):
@@ -100,7 +85,7 @@ def nonfinite_source(model, method, t, x, p, r, step=None):
             return f"; at that state the rhs is not finite: {_listed(names)}"
         info = model.metadata.get("implicit")
         if method == "implicitfast" and info and "implicit" in getattr(model, "functions", ()):
-            got = _call(model, "implicit", t, x, p, r, info["layout"]["size"])
+            got = call_generated(model, "implicit", t, x, p, r, info["layout"]["size"])
             if got is not None and got[0] not in (0, NONFINITE):
                 return ""
             if got is not None and not np.all(np.isfinite(got[1])):

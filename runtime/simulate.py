@@ -642,19 +642,13 @@ def penetration_message(model, x_last, p):
 
 def deepest_contacts(model, x, p):
     """[(name, depth, limit)] of the contacts deeper than their limit at state x, deepest first."""
+    from .generated_call import call_generated
     info = model.metadata["implicit"]
     layout = info["layout"]
-    ffi = model.ffi
-    fp = ffi.addressof(model.model_lib, f"{model.name}_implicit")
-    out = np.zeros(layout["size"])
-    work = np.zeros(max(model.work_size, 1) + 1)
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    pp = np.ascontiguousarray(np.append(np.asarray(p, dtype=np.float64), 0.0))
-    r = np.zeros(max(model.ninput, 1))
-    if fp(0.0, ffi.from_buffer("double[]", x), ffi.from_buffer("double[]", pp),
-          ffi.from_buffer("double[]", r) if model.ninput else ffi.NULL,
-          ffi.from_buffer("double[]", out), ffi.from_buffer("double[]", work)) != 0:
+    got = call_generated(model, "implicit", 0.0, x, p, np.zeros(model.ninput), layout["size"])
+    if got is None or got[0] != 0:
         return []
+    out = got[1]
     lims = depth_limits(model, p)
     found = [(c.get("name"), float(out[layout["contact"] + 25 * k]), float(lims[k]))
              for k, c in enumerate(info["contacts"])]
