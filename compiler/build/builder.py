@@ -23,7 +23,7 @@ from .cache import CACHE_SCHEMA, cache_root, get_or_build, hash_key, sha256_file
 from .cache_admin import auto_prune, max_size_from_env
 from .stack import CALLGRAPH_FLAG, measure_stack, stack_header_block, supports_callgraph
 from .toolchain import (DEFAULT_CFLAGS, ERRNO_FREE_FLAGS, ERRNO_FREE_UP_TO, find_compiler, machine_flags,
-                        portable_from_env, run_compiler)
+                        parallel_flags, portable_from_env, run_compiler)
 
 __all__ = ["BuildResult", "build", "shipped_c_dir", "SHIPPED_HEADERS", "resolve_cflags"]
 
@@ -92,13 +92,15 @@ def _base_inputs(tc, flags):
             "cflags": flags}
 
 
-def _model_json(generated, key, backend, tc, flags, extra, extension=None):
+def _model_json(generated, key, backend, tc, flags, extra, extension=None, parallel=()):
     data = dict(generated.metadata)
     data.update(extra or {})
     data["cdef"] = generated.cdef
     data["build"] = {"library": f"lib{generated.name}.so", "backend": backend,
                      "compiler": tc.version, "cflags": flags, "key": key,
                      "extension": extension}
+    if parallel:        # how the compile ran (toolchain.parallel_flags), not what it computes
+        data["build"]["parallel"] = list(parallel)
     return json.dumps(data, indent=1, sort_keys=True)
 
 
@@ -136,11 +138,16 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
     # flag; it changes no generated code).  The c99-f64 key keeps the argv without the flag, so
     # the keys of double builds are what they were before the measurement existed.
     measured = supports_callgraph(tc)
+    # A big translation unit is compiled on several cores (gcc's link-time optimiser).  The
+    # library's result bits are the one-unit build's, so the flag is in neither the key nor
+    # NAME.json's cflags (which a worker re-compiling a pickled model reuses): NAME.json's
+    # build.parallel records it.
+    parallel = parallel_flags(tc, len(generated.c_source)) if cflags is None and not embedded else ()
     root = cache_root(cache_dir)
     c_dir = shipped_c_dir()
     lib = f"lib{name}.so"
     tail = ["-shared", "-o", lib, f"{name}.c", *MODEL_RUNTIME_SOURCES, "-lm", *_link_flags()]
-    link = [*tc.argv, *flags, *([CALLGRAPH_FLAG] if measured else []), *tail]
+    link = [*tc.argv, *flags, *parallel, *([CALLGRAPH_FLAG] if measured else []), *tail]
     keyed = link if embedded else [*tc.argv, *flags, *tail]
     inputs = {**_base_inputs(tc, flags), "backend": backend,
               "argv": keyed[len(tc.argv):],
@@ -165,7 +172,7 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
             extension = build_extension(tmp, generated, tc, flags, key, root)
         (tmp / f"{name}.json").write_text(
             _model_json(generated, key, backend, tc, flags, {**(extra_metadata or {}), **(stack or {})},
-                        extension))
+                        extension, parallel))
 
     entry, hit = get_or_build(root, "models", key, compile_model, inputs, force=force, hold_in=hold_in)
     if not hit:
