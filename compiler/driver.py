@@ -18,6 +18,7 @@ from eomc.runtime.errors import EomcError, ModelError
 from eomc.runtime.progress import is_terminal, ticker
 
 from .build import build, cache_root
+from .build.builder import compile_jobs
 from .build.cache import BadEntry
 from .build.gencache import cached_generate
 from .emit.poses import pose_digest
@@ -438,6 +439,10 @@ def build_and_load(generated, *, backend="cffi", cflags=None, cache_dir=None, ou
     for attempt in (1, 2):
         with contextlib.ExitStack() as held:
             with progress.stage("compile"):
+                jobs = compile_jobs(generated, cflags) if progress.enabled or progress.log_long else 1
+                if jobs > 1:            # said on the live line and in a log's "still running" lines
+                    progress.live.note(f"on {jobs} cores")
+                    progress.now_doing(f"on {jobs} cores")
                 built = build(generated, force=attempt > 1, hold_in=held, **options)
             try:
                 directory = (export(built, output_dir, source=source) if output_dir is not None

@@ -25,7 +25,7 @@ from .stack import CALLGRAPH_FLAG, measure_stack, stack_header_block, supports_c
 from .toolchain import (DEFAULT_CFLAGS, ERRNO_FREE_FLAGS, ERRNO_FREE_UP_TO, find_compiler, machine_flags,
                         parallel_flags, portable_from_env, run_compiler)
 
-__all__ = ["BuildResult", "build", "shipped_c_dir", "SHIPPED_HEADERS", "resolve_cflags"]
+__all__ = ["BuildResult", "build", "compile_jobs", "shipped_c_dir", "SHIPPED_HEADERS", "resolve_cflags"]
 
 SHIPPED_HEADERS = ("eomc_model.h", "eomc_integrators.h", "eomc_batch.h")
 MODEL_RUNTIME_SOURCES = ("eomc_batch.c",)  # compiled into every model library
@@ -138,11 +138,7 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
     # flag; it changes no generated code).  The c99-f64 key keeps the argv without the flag, so
     # the keys of double builds are what they were before the measurement existed.
     measured = supports_callgraph(tc)
-    # A big translation unit is compiled on several cores (gcc's link-time optimiser).  The
-    # library's result bits are the one-unit build's, so the flag is in neither the key nor
-    # NAME.json's cflags (which a worker re-compiling a pickled model reuses): NAME.json's
-    # build.parallel records it.
-    parallel = parallel_flags(tc, len(generated.c_source)) if cflags is None and not embedded else ()
+    parallel = _parallel(generated, cflags, tc)
     root = cache_root(cache_dir)
     c_dir = shipped_c_dir()
     lib = f"lib{name}.so"
@@ -178,6 +174,25 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
     if not hit:
         auto_prune(root, keep=(key,))
     return BuildResult(name, entry, entry / lib, key, hit, backend)
+
+
+def _parallel(generated, cflags, tc):
+    """The flags that compile ``generated`` on several cores (toolchain.parallel_flags), or ().
+
+    Only eomc's own double build: the user's cflags rule, and a float target is C for someone
+    else's compiler.  The library's result bits are the one-unit build's, so the flag is in
+    neither the cache key nor NAME.json's cflags (which a worker re-compiling a pickled model
+    reuses): NAME.json's build.parallel records it."""
+    if cflags is not None or generated.metadata.get("target", "c99-f64") != "c99-f64":
+        return ()
+    return parallel_flags(tc, len(generated.c_source))
+
+
+def compile_jobs(generated, cflags=None):
+    """How many compiler jobs :func:`build` runs for ``generated`` on a cache miss (1: one
+    process), for the progress line."""
+    flags = _parallel(generated, cflags, find_compiler())
+    return int(flags[0].split("=", 1)[1]) if flags else 1
 
 
 def _stack(tmp, generated, tc, measured):

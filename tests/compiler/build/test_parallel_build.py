@@ -71,3 +71,15 @@ def test_parallel_flags_only_where_they_run_in_parallel(monkeypatch, tmp_path):
 def test_a_bad_job_count_is_named(value):
     with pytest.raises(ValueError, match="EOMC_BUILD_JOBS"):
         build_jobs({"EOMC_BUILD_JOBS": value})
+
+
+@pytest.mark.skipif(not GCC, reason="the parallel build is gcc's -flto with make")
+def test_the_progress_line_is_told_the_jobs_build_runs(monkeypatch):
+    from helpers import osc_model
+    from eomc.compiler.build import compile_jobs
+    gen = osc_model.oscillator()
+    monkeypatch.setenv("EOMC_BUILD_JOBS", "3")
+    assert compile_jobs(gen) == 1                            # small C: one process
+    monkeypatch.setattr(toolchain, "PARALLEL_FROM", 0)
+    assert compile_jobs(gen) == 3
+    assert compile_jobs(gen, cflags="-O1") == 1              # the user's flags: theirs alone
