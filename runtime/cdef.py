@@ -9,7 +9,7 @@ sizes and names read through this layout against each built model's metadata.
 from .header_cdef import header_cdef
 
 __all__ = ["ABI_VERSION", "MODEL_CDEF", "BATCH_CDEF", "STATUS_NAMES", "STATUS_SINGULAR_MASS_MATRIX",
-           "STATUS_ABORTED", "model_function_cdef", "CONST_SPLIT"]
+           "STATUS_ABORTED", "model_function_cdef", "CONST_SPLIT", "TREE_LU", "TREE_SOLVE", "TREE_RESIDUAL"]
 
 ABI_VERSION = 1
 
@@ -69,8 +69,14 @@ CONST_SPLIT = {"implicit": ("void {n}_implicit_const(double *out);",
                             "int {n}_implicit_var(double t, const double *x, const double *p, const double *r, "
                             "double *out, double *work);")}
 
+# The fixed step's factorisation of M's tree pattern, its solves and M's product as straight-line C (NAME.json's "tree_lu": true;
+# compiler/emit/tree_lu.py; eomc_implicit.tree_lu)
+TREE_LU = "int {n}_tree_lu(double *A);"
+TREE_SOLVE = "void {n}_tree_solve(const double *A, double *b, double *c);"
+TREE_RESIDUAL = "void {n}_tree_residual(const double *M, const double *f, const double *du, double h, double *r);"
 
-def model_function_cdef(name, functions, const_split=()):
+
+def model_function_cdef(name, functions, const_split=(), tree_lu=False):
     """Declarations of a model's exported functions, rebuilt from its metadata.
 
     Used when a build directory's metadata carries no ``cdef`` text; the
@@ -82,4 +88,6 @@ def model_function_cdef(name, functions, const_split=()):
     if "poses" in functions:
         lines.append(f"int {name}_pose_count(void);")
     lines += [d.format(n=name) for f in const_split if f in functions for d in CONST_SPLIT[f]]
+    if tree_lu and "implicit" in functions:
+        lines += [TREE_LU.format(n=name), TREE_SOLVE.format(n=name), TREE_RESIDUAL.format(n=name)]
     return "\n".join(lines) + "\n"

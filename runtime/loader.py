@@ -49,7 +49,7 @@ import cffi
 from .cpu import ISA_FLAGS, missing_isa
 from .cdef import BATCH_CDEF, MODEL_CDEF, model_function_cdef
 from .integrators_api import INTEGRATOR_CDEF
-from .metadata import EXPORTED_FUNCTIONS, LoadError, check_json, const_split, from_library
+from .metadata import EXPORTED_FUNCTIONS, LoadError, check_json, const_split, from_library, tree_lu
 from .float32 import FLOAT32_TARGET, Float32Model
 from .model import Model
 from .native import integrator_library
@@ -278,7 +278,8 @@ def _open_cffi(snap):
     model_ffi = cffi.FFI()
     model_ffi.include(ffi)
     functions = data.get("functions", ())
-    model_ffi.cdef(model_function_cdef(name, functions, const_split(snap.json_path, data)))
+    model_ffi.cdef(model_function_cdef(name, functions, const_split(snap.json_path, data),
+                                    tree_lu(snap.json_path, data)))
     library, blob, _, _ = snap.library
     try:
         # always from a private copy of the bytes read at load time: the dynamic loader maps

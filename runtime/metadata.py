@@ -69,6 +69,14 @@ def const_split(path, data):
     return tuple(split)
 
 
+def tree_lu(path, data):
+    """Whether NAME.json says the library has NAME_tree_lu ("tree_lu": true; runtime/cdef.TREE_LU), checked."""
+    flag = data.get("tree_lu", False)
+    if not isinstance(flag, bool):
+        raise _bad(path, f"tree_lu must be true or false; got {flag!r}")
+    return flag
+
+
 def check_json(path, data):
     """Check NAME.json before anything is opened; returns (name, library file name, functions)."""
     if not isinstance(data, dict):
@@ -97,7 +105,8 @@ def check_json(path, data):
         raise _bad(path, f"target must be c99-f64 or c99-f32, not {target!r}")
     cdef = data.get("cdef")
     if cdef is not None and target == "c99-f64":   # a c99-f32 load declares its own (runtime/float32.py)
-        expected = set(model_function_cdef(name, functions, const_split(path, data)).split("\n")) - {""}
+        expected = set(model_function_cdef(name, functions, const_split(path, data),
+                                         tree_lu(path, data)).split("\n")) - {""}
         if not isinstance(cdef, str) or {line.strip() for line in cdef.split("\n")} - {""} != expected:
             raise _bad(path, "its C declarations (cdef) do not match the functions it lists")
     for field in ("state_names", "param_names", "input_names", "output_names", "param_defaults"):

@@ -545,6 +545,10 @@ def implicit_terms(model):
             split = _const_apart(model)
             if split is not None:       # the constant outputs once per run (eomc_implicit.terms_const)
                 st.terms, st.terms_const = ffi.cast("eomc_mat_fn", split[0]), split[1]
+            if tree and model.metadata.get("tree_lu"):   # M's tree pattern factored in straight-line C
+                st.tree_lu = ffi.addressof(model.model_lib, f"{model.name}_tree_lu")
+                st.tree_solve = ffi.addressof(model.model_lib, f"{model.name}_tree_solve")
+                st.tree_residual = ffi.addressof(model.model_lib, f"{model.name}_tree_residual")
             st.ncontact = len(contacts)
             st.chain_start, st.chain, st.parent = keep[:3]
             st.nfree, st.free = len(free), keep[3]
@@ -621,7 +625,8 @@ def implicit_for_run(model, p, split=IMPLICITFAST_SPLIT):
     st.terms, st.ncontact, st.chain_start, st.chain = base.terms, base.ncontact, base.chain_start, base.chain
     st.parent, st.work_len, st.depth_limit, st.split = base.parent, base.work_len, lim, float(split)
     st.nfree, st.free, st.terms_const, st.energy = base.nfree, base.free, base.terms_const, base.energy
-    st.joint = base.joint
+    st.joint, st.tree_lu, st.tree_solve = base.joint, base.tree_lu, base.tree_solve
+    st.tree_residual = base.tree_residual
     return st, (st, lim, base)     # the caller keeps the second alive while C runs
 
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass, replace
 import jinja2
 import sympy as sm
 
-from eomc.runtime.cdef import CONST_SPLIT
+from eomc.runtime.cdef import CONST_SPLIT, TREE_LU, TREE_RESIDUAL, TREE_SOLVE
 from eomc.runtime.errors import ModelError
 from eomc.runtime.switching import GAP_EVENT_PREFIXES
 from ..passes import finish_function, optimize_shared
@@ -23,6 +23,7 @@ from .linsolve import choose_ldlt
 from .printer import CALLED_C, MINMAX_C, HalfPow, NonFiniteLiteral, print_memo
 from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
+from .tree_lu import tree_functions
 from .split import (FOLD_MIN, LEAN_MACRO, NEAR_MACRO, NOINLINE_MACRO, PART_LEAN_FUNCTIONS, PART_LEAN_MACRO,
                     lean_attribute, split_body)
 from .batch import batch_code
@@ -593,6 +594,10 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
     meta.update(formulation.metadata(sym, fns))
     if low.poses is not None:
         meta["poses"] = pose_metadata(low.poses)
+    tree = tree_functions(name, meta["implicit"]["parents"]) if "implicit" in meta else []
+    if tree:        # the fixed step's factorisation of M's tree pattern and its solves (compiler/emit/tree_lu.py)
+        rendered += tree
+        meta["tree_lu"] = True
     return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split, formulation,
                    ctx.solver_parts)
 
@@ -822,7 +827,14 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
         + ([f"int {name}_pose_count(void)"] if "poses" in fns else [])
         + _const_docs(name, meta, any(_KEPT_CALL.search(t) for f in rendered for t in [f["body"], *f["parts"]]))
         + ([f"int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const double *R, "
-            f"double *XDOT, int *status, double *work)"] if "rhs_batch" in fns else []),
+            f"double *XDOT, int *status, double *work)"] if "rhs_batch" in fns else [])
+        + ([f"/* {name}_tree_lu(A): A (nu x nu, by rows) = its LU over the mass matrix's tree pattern, in place, as\n"
+            f" * the fixed step's loop makes it (runtime/c/eomc_fixedstep.c, fs_tree_lu); 1: a pivot too small.\n"
+            f" * {name}_tree_solve(A, b, c): b := A^-1 b with that A, and c := A^-1 c unless c is NULL.\n"
+            f" * {name}_tree_residual(M, f, du, h, r): r = M du - h f over the mass matrix's pattern */\n"
+            + TREE_LU.format(n=name).rstrip(";"), TREE_SOLVE.format(n=name).rstrip(";"),
+            TREE_RESIDUAL.format(n=name).rstrip(";")]
+           if meta.get("tree_lu") else []),
         vectors=_vector_docs(meta), quaternions=meta.get("quaternions", ()), **common)
     helper_code = "\n".join(c for c in ((solver.code if uses_solver else ""), *solver_parts, helper) if c)
     source = env.get_template("model.c.j2").render(
@@ -836,7 +848,9 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
                                                             for f in rendered for p in f["parts"])))
                        if used), **common)
     return GeneratedModel(name=name, c_source=source, header=header,
-                          cdef=cdef(name, fns) + "".join(f"{p};\n" for p in const_prototypes(name, meta)),
+                          cdef=cdef(name, fns) + "".join(f"{p};\n" for p in const_prototypes(name, meta))
+                          + "".join(f.format(n=name) + "\n" for f in (TREE_LU, TREE_SOLVE, TREE_RESIDUAL)
+                                    if meta.get("tree_lu")),
                           metadata=meta)
 
 

@@ -1062,7 +1062,10 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
         *start = own;
         *anc = own + nu + 1;
     }
-    if (fs_tree_lu(nu, A, *start, *anc)) return EOMC_SINGULAR_MASS_MATRIX;
+    /* M's own tree pattern (pat->tree: the lists are parent[]'s ancestors alone): the model's
+     * straight-line twin of the loop where it has one (eomc_implicit.tree_lu), the same bits */
+    if (!grown && pat->tree && imp->tree_lu ? imp->tree_lu(A) : fs_tree_lu(nu, A, *start, *anc))
+        return EOMC_SINGULAR_MASS_MATRIX;
     return EOMC_OK;
 }
 
@@ -1612,6 +1615,20 @@ typedef struct fs_fast {
  * (0 du[k], or c - c for a constant c) in the same order, so they are the same to the bit: a
  * sum that starts at +0 and adds nonzero or +0 terms never meets the -0 + +0 case (and a
  * non-finite du fails the try on x1 either way). */
+/* b := A^-1 b, and c := A^-1 c unless c is NULL, A factored over the lists start, anc: the model's
+ * straight-line twin (eomc_implicit.tree_solve) where those are M's own tree pattern's, the same
+ * operations and bits as the loop */
+static void fs_solve(const fs_fast *q, const double *A, const int *start, const int *anc, double *b, double *c)
+{
+    const eomc_implicit *imp = q->ops->imp;
+    if (start == q->pat.start && q->pat.tree && imp->tree_solve)
+        imp->tree_solve(A, b, c);
+    else if (c)
+        fs_tree_solve2(q->ops->nu, A, start, anc, b, c);
+    else
+        fs_tree_solve(q->ops->nu, A, start, anc, b);
+}
+
 static void fs_nlists(fs_fast *q, const double *N, int known)
 {
     const eomc_implicit *imp = q->ops->imp;
@@ -1833,7 +1850,7 @@ static double fs_start_ratio(fs_fast *q, double h, const double *r)
     int nu = q->ops->nu;
     double rn = 0.0, dn = 0.0, *w = q->GJ, ratio;
     memcpy(w, r, (size_t)nu * sizeof(double));
-    fs_tree_solve(nu, q->A, q->start, q->anc, w);
+    fs_solve(q, q->A, q->start, q->anc, w, NULL);
     for (int i = 0; i < nu; i++) {
         rn += w[i] * w[i];
         dn += q->du[i] * q->du[i];
@@ -1848,6 +1865,10 @@ static void fs_residual(fs_fast *q, double h)
 {
     const double *M1 = q->T1 + q->L.M, *f1 = q->T1 + q->L.f;
     if (q->ops->imp->terms_whole) q->ops->imp->terms_whole(q->T1);
+    if (q->pat.tree && q->ops->imp->tree_residual) {     /* the model's straight-line twin, same bits */
+        q->ops->imp->tree_residual(M1, f1, q->du, h, q->dv);
+        return;
+    }
     for (int i = 0; i < q->ops->nu; i++) {
         const double *row = M1 + (size_t)i * q->ops->nu;
         double r = -h * f1[i];
@@ -1875,7 +1896,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
         memcpy(q->du, q->dun, (size_t)nu * sizeof(double));
     } else {
         for (int i = 0; i < nu; i++) q->du[i] = h * q->b[i];
-        fs_tree_solve(nu, q->A, q->start, q->anc, q->du);
+        fs_solve(q, q->A, q->start, q->anc, q->du, NULL);
     }
     rq->ahead = 0;
     if (!v1 && ops->imp->terms_whole) ops->imp->terms_whole(q->T);
@@ -1934,7 +1955,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     /* and the next try's du from T1 at h (A1^-1 h b1: what that try would solve) in the same pass;
      * measured on the ant (1 s checked, runtime .so A/B in one process): 0.563 -> 0.551 ms */
     for (int i = 0; i < nu; i++) q->dun[i] = h * q->b1[i];
-    fs_tree_solve2(nu, q->A1, q->start1, q->anc1, q->dv, q->dun);
+    fs_solve(q, q->A1, q->start1, q->anc1, q->dv, q->dun);
     q->dun_T = q->T1;
     q->dun_h = h;
     for (int i = 0; i < nu; i++) {
@@ -2146,7 +2167,7 @@ static int fs_last_cell(fs_fast *q, double t, double h, const double *x, double 
                          q->own1, &q->start1, &q->anc1)))
         return s == EOMC_SINGULAR_MASS_MATRIX ? EOMC_OK : s;    /* no correction: taken as it is */
     fs_residual(q, h);                   /* dv = A1^-1 r at the try */
-    fs_tree_solve(nu, q->A1, q->start1, q->anc1, q->dv);
+    fs_solve(q, q->A1, q->start1, q->anc1, q->dv, NULL);
     memcpy(q->dub, q->du, bytes);
     for (int i = 0; i < nu; i++) q->dug[i] = q->du[i] - q->dv[i];
     for (int it = 0; it < LAST_ITER && best > split; it++) {

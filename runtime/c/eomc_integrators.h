@@ -118,6 +118,14 @@ typedef struct eomc_implicit {
        of a joint's speeds turns with the velocity before the joint, not after the speed before it
        (a contact's bias, eomc_fixedstep.c fs_point_bias) */
     const int *joint;
+    /* NULL, or NAME_tree_lu (NAME.json "tree_lu": compiler/emit/tree_lu.py): fs_tree_lu over the
+       tree of parent[] written out for this model, the same operations and bits; the fast path
+       calls it where it factors M's own tree pattern (no pressed pair's fill), the loop elsewhere */
+    int (*tree_lu)(double *A);
+    /* NULL, or NAME_tree_solve: fs_tree_solve (c NULL) or fs_tree_solve2 with a tree_lu factor */
+    void (*tree_solve)(const double *A, double *b, double *c);
+    /* NULL, or NAME_tree_residual: r = M du - h f over M's tree pattern (fs_residual's sums) */
+    void (*tree_residual)(const double *M, const double *f, const double *du, double h, double *r);
 } eomc_implicit;
 
 /* One joint limit's spring whose stored energy the watched output leaves out (MJCF's: unilateral
