@@ -69,8 +69,8 @@ CONST_SPLIT = {"implicit": ("void {n}_implicit_const(double *out);",
                             "int {n}_implicit_var(double t, const double *x, const double *p, const double *r, "
                             "double *out, double *work);")}
 
-# The fixed step's factorisation of M's tree pattern, its solves and M's product as straight-line C (NAME.json's "tree_lu": true;
-# compiler/emit/tree_lu.py; eomc_implicit.tree_lu)
+# The fixed step's factorisation of M's tree pattern, its solves and M's product as straight-line C
+# (NAME.json's "tree_lu": true; compiler/emit/tree_lu.py; eomc_implicit.tree_lu)
 TREE_LU = "int {n}_tree_lu(double *A);"
 TREE_SOLVE = "void {n}_tree_solve(const double *A, double *b, double *c);"
 TREE_RESIDUAL = "void {n}_tree_residual(const double *M, const double *f, const double *du, double h, double *r);"

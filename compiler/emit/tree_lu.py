@@ -12,7 +12,8 @@ registers, run the humanoid's factorisation 2.4x faster in a harness (AVX2 build
 The same operations in the same order as fs_tree_lu (its scale test, each pivot's test, u = A[i][k]
 / d as A[i][k] * (1 / d), a row whose u is 0 skipped, row k scaled last), each entry's sequence of
 updates unchanged, so the same bits (tests/compiler/emit/test_tree_lu.py: against the loop in C on
-random matrices of random trees; tests/runtime: whole runs, bit for bit).  The step uses it only
+random matrices of random trees; the lanes rollout, whose own factorisation is the loop's, still
+equals the scalar rows bit for bit: tests/runtime/test_rollout_lanes*.py).  The step uses it only
 where it factors M's own tree pattern (no pressed body-body pair across two branches: their fill
 goes through the loop).
 
@@ -21,7 +22,8 @@ call) were ~80 % of a try's own time outside the model (perf, the humanoid: 590 
 chain of loads and stores through b[] in the loop, 23 values in registers here.
 """
 
-__all__ = ["tree_lu_function", "tree_solve_function", "tree_residual_function", "tree_functions", "tree_lists", "TREE_LU_MAX_UPDATES", "TREE_LU_MAX_SPEEDS"]
+__all__ = ["tree_lu_function", "tree_solve_function", "tree_residual_function", "tree_functions", "tree_lists",
+           "TREE_LU_MAX_UPDATES", "TREE_LU_MAX_SPEEDS"]
 
 # Speeds past this the step has no per-step pattern (eomc_fixedstep.c: "dyn", at most 64 speeds:
 # every pair's fill at every step instead), so the function would never be called.
@@ -48,13 +50,21 @@ def tree_lists(parents):
     return lists
 
 
+def _written_lists(parents):
+    """tree_lists(parents) where the step would use the written-out functions, else None (not a
+    tree, more than TREE_LU_MAX_SPEEDS speeds, or more than TREE_LU_MAX_UPDATES updates)."""
+    lists = tree_lists(parents)
+    if lists is None or len(parents) > TREE_LU_MAX_SPEEDS or sum(len(a) ** 2 for a in lists) > TREE_LU_MAX_UPDATES:
+        return None
+    return lists
+
+
 def tree_lu_function(name, parents):
     """The rendered function (prototype, body, parts) of ``int NAME_tree_lu(double *A)`` for the
-    tree ``parents`` (per speed its parent, -1 at a root), or None when the step would not use it
-    (not a tree, more than TREE_LU_MAX_SPEEDS speeds) or it would be too long."""
-    lists = tree_lists(parents)
+    tree ``parents`` (per speed its parent, -1 at a root), or None (_written_lists)."""
+    lists = _written_lists(parents)
     n = len(parents)
-    if lists is None or n > TREE_LU_MAX_SPEEDS or sum(len(a) ** 2 for a in lists) > TREE_LU_MAX_UPDATES:
+    if lists is None:
         return None
     out = ["    double scale = 0.0, d, inv;",
            f"    for (int k = 0; k < {n}; k++)",
@@ -98,9 +108,9 @@ def _solve_lines(n, lists, vecs):
 def tree_solve_function(name, parents):
     """The rendered ``void NAME_tree_solve(const double *A, double *b, double *c)``: b := A^-1 b with
     A factored by NAME_tree_lu, and c := A^-1 c too unless c is NULL (fs_tree_solve, fs_tree_solve2:
-    the same operations, so the same bits), or None where tree_lu_function gives none."""
-    lists = tree_lists(parents)
-    if lists is None or tree_lu_function(name, parents) is None:
+    the same operations, so the same bits), or None (_written_lists)."""
+    lists = _written_lists(parents)
+    if lists is None:
         return None
     n = len(parents)
     body = ["    if (c == NULL) {", *("    " + line for line in _solve_lines(n, lists, ["b"])),
@@ -112,11 +122,10 @@ def tree_solve_function(name, parents):
 def tree_residual_function(name, parents):
     """The rendered ``void NAME_tree_residual(const double *M, const double *f, const double *du, double h,
     double *r)``: r = M du - h f over M's tree pattern (a speed's ancestors, itself, its descendants),
-    ascending, each row's sum in fs_residual's order (the same bits), or None where tree_lu_function
-    gives none.  Why: the fixed step's implicit Euler residual at each try's end, one product a call
+    ascending, each row's sum in fs_residual's order (the same bits), or None (_written_lists).  Why: the fixed step's implicit Euler residual at each try's end, one product a call
     (perf, the humanoid: 254 ns a call in the loop over its column lists)."""
-    lists = tree_lists(parents)
-    if lists is None or tree_lu_function(name, parents) is None:
+    lists = _written_lists(parents)
+    if lists is None:
         return None
     n = len(parents)
     linked = [sorted({i, *lists[i], *(k for k in range(n) if i in lists[k])}) for i in range(n)]
@@ -129,6 +138,7 @@ def tree_residual_function(name, parents):
 
 def tree_functions(name, parents):
     """[NAME_tree_lu, NAME_tree_solve, NAME_tree_residual] rendered for the tree ``parents``, or []
-    (tree_lu_function)."""
-    lu = tree_lu_function(name, parents)
-    return [] if lu is None else [lu, tree_solve_function(name, parents), tree_residual_function(name, parents)]
+    (_written_lists)."""
+    if _written_lists(parents) is None:
+        return []
+    return [tree_lu_function(name, parents), tree_solve_function(name, parents), tree_residual_function(name, parents)]

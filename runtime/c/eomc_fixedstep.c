@@ -1602,19 +1602,6 @@ typedef struct fs_fast {
     double chart;                /* the last try's fs_chart_ratio (0: none) */
 } fs_fast;
 
-/* The columns of N (q' = qd + N u) that a step's products read: per row i, ncol[nstart[i] ..
- * nstart[i + 1]) the columns k whose entry is not a constant 0 (all of them without
- * eomc_implicit.terms_const), ascending, for the try's rate qd + N du; fcol[fstart[i] ..] the root
- * free joints' columns whose entry is not a constant at all, in fs_chart_ratio's order, for its
- * N(q) - N(q1).  Which entries are constants: N's slots are NaN-filled before terms_const writes
- * the constants (NAME_implicit_const writes no non-finite one); the slots left NaN are the ones
- * terms writes at every call.  Why: N is nq x nu but, beside a free joint's rotation, one entry a
- * row (the gymnasium humanoid: 35 of its 529 entries are not a constant 0, and 18 of the 138 in
- * its free joint's columns vary), and the dense rate and chart sums were ~3 % of the humanoid's
- * and ant's checked step (perf, session 23).  The sums skip only terms that are exactly +-0
- * (0 du[k], or c - c for a constant c) in the same order, so they are the same to the bit: a
- * sum that starts at +0 and adds nonzero or +0 terms never meets the -0 + +0 case (and a
- * non-finite du fails the try on x1 either way). */
 /* b := A^-1 b, and c := A^-1 c unless c is NULL, A factored over the lists start, anc: the model's
  * straight-line twin (eomc_implicit.tree_solve) where those are M's own tree pattern's, the same
  * operations and bits as the loop */
@@ -1629,6 +1616,19 @@ static void fs_solve(const fs_fast *q, const double *A, const int *start, const 
         fs_tree_solve(q->ops->nu, A, start, anc, b);
 }
 
+/* The columns of N (q' = qd + N u) that a step's products read: per row i, ncol[nstart[i] ..
+ * nstart[i + 1]) the columns k whose entry is not a constant 0 (all of them without
+ * eomc_implicit.terms_const), ascending, for the try's rate qd + N du; fcol[fstart[i] ..] the root
+ * free joints' columns whose entry is not a constant at all, in fs_chart_ratio's order, for its
+ * N(q) - N(q1).  Which entries are constants: N's slots are NaN-filled before terms_const writes
+ * the constants (NAME_implicit_const writes no non-finite one); the slots left NaN are the ones
+ * terms writes at every call.  Why: N is nq x nu but, beside a free joint's rotation, one entry a
+ * row (the gymnasium humanoid: 35 of its 529 entries are not a constant 0, and 18 of the 138 in
+ * its free joint's columns vary), and the dense rate and chart sums were ~3 % of the humanoid's
+ * and ant's checked step (perf, session 23).  The sums skip only terms that are exactly +-0
+ * (0 du[k], or c - c for a constant c) in the same order, so they are the same to the bit: a
+ * sum that starts at +0 and adds nonzero or +0 terms never meets the -0 + +0 case (and a
+ * non-finite du fails the try on x1 either way). */
 static void fs_nlists(fs_fast *q, const double *N, int known)
 {
     const eomc_implicit *imp = q->ops->imp;
