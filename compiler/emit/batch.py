@@ -759,7 +759,8 @@ class _Rewriter:
         buffer of its own and put in its lane of that array the same way -- or, in
         NAME_implicit_lanes' own body (``rows_ok``), when the caller hands rows (``rows_``, one
         output buffer per lane: NAME_implicit_batch_rows), written by the loop straight into
-        its lane's row at the block's place, the block's columns left alone, and a lane whose
+        its lane's row at the block's place (kept, as NAME_implicit_var keeps it in the step's
+        buffers: contact/table.KEPT_BLOCK), the block's columns left alone, and a lane whose
         block holds a non-finite entry marked in ``sb_`` (looked for only when the loop's sum of
         what it wrote is not finite: NAME_implicit's own verdict, compiler/tree/emit.finite_return).
         Why: on gymnasium's humanoid the block is 2725 of the 4739 outputs, nearly all zeros, and
@@ -807,7 +808,7 @@ class _Rewriter:
                 if slopes else "")
         if rows:    # the block into the lane's row (rows_), else into slo_ and its lane as above
             into = (into[0] + f"{indent}    double *const dst_ = rows_ ? rows_[l_] + {slopes_first} : slo_;\n",
-                    f", dst_, {nslopes}, 0",
+                    f", dst_, {nslopes}, rows_ != 0",
                     f"{indent}    if (!rows_) {self.prefix}_put_lane({slopes} + {slopes_first}, slo_, {nslopes}, l_);\n"
                     f"{indent}    else if (!({name} - {name} == 0.0)) {{   /* the sum not finite: the block entry by entry */\n"
                     f"{indent}        int e_;\n"

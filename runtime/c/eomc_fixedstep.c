@@ -2626,6 +2626,10 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
         q.L = fs_layout_of(nq, nu, ops->imp->ncontact);
         q.T = pos; pos += q.L.size;
         q.T1 = pos; pos += q.L.size;
+        /* zeros first: the pairs' loop keeps its slope block in these buffers from call to call
+         * (compiler/contact/table.KEPT_BLOCK) and zeroes only the records it finds written, so a
+         * buffer's first call must not find stale numbers there (the caller's work may hold any) */
+        memset(q.T, 0, 2 * q.L.size * sizeof(double));
         if (ops->imp->terms_const) {    /* the terms' constant outputs, once (terms: the rest) */
             for (size_t i = 0; i < (size_t)nq * nu; i++) q.T[q.L.N + i] = NAN;   /* fs_nlists */
             ops->imp->terms_const(q.T);

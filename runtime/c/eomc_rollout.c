@@ -612,7 +612,8 @@ static void *lanes_fiber_worker(rollout_job *job)
     /* NULL (no vector kernel for L here, or a model without the fast path's structure): each row
      * assembles its own step, as before */
     eomc_fs_lanes *lw = imp->terms_lu == NULL ? eomc_fs_lanes_new(job->m->nq, job->m->nu, imp, L) : NULL;
-    double *pad = job->batch_rows ? (double *)malloc(job->out_len * sizeof(double)) : NULL;
+    /* zeros: the pairs' loop keeps its block there too (it zeroes only the records it wrote) */
+    double *pad = job->batch_rows ? (double *)calloc(job->out_len, sizeof(double)) : NULL;
     int ok = f && buf && mwork && ibuf && hot && nvar >= 0 && (pad || !job->batch_rows), failed = 1;
     if (ok) {               /* the tested outputs that a call writes (a constant one is there) */
         unsigned char *written = (unsigned char *)calloc(job->out_len + 1, 1);

@@ -215,7 +215,8 @@ def test_the_pairs_slope_block_goes_into_each_states_own_row(tmp_path, monkeypat
     place (nothing else of the buffer touched), every other output in OUT as NAME_implicit_batch
     writes it, the block's rows of OUT left alone by the lanes -- bit for bit the scalar
     NAME_implicit (libm sin/cos) with the feet pressed together, apart and on the floor, one group
-    in OUT itself and a scalar tail; and the statuses of states with a non-finite entry are the
+    in OUT itself and a scalar tail; into rows that hold NaN or the block of an earlier call (the
+    loop keeps it: table.KEPT_BLOCK); and the statuses of states with a non-finite entry are the
     scalar call's."""
     import eomc
     from eomc.compiler.contact import pairs
@@ -259,6 +260,14 @@ def test_the_pairs_slope_block_goes_into_each_states_own_row(tmp_path, monkeypat
         assert np.array_equal(got[:, first + length:], want[:m, first + length:])
         g = m // lanes * lanes          # the lanes' states: their block columns untouched
         assert (got[:g, block] == 7.0).all()
+        # again into the same rows with each row's state moved on (pressed rows now apart and
+        # the other way): the loop keeps the block (table.KEPT_BLOCK) and zeroes only the records
+        # it wrote, so what stays is the scalar call's block of the new states all the same
+        perm = np.roll(np.arange(m), 1)
+        status = _batch_rows(model, X[perm], out, rows)
+        assert (status == 0).all()
+        assert np.array_equal(rows[:, block], want[perm][:, block])
+        assert (want[perm][:, block].reshape(m, -1, 25)[:, :, 0] > 0).any(axis=1).tolist() != pressed[:m].tolist()
     bad = X[:lanes].copy()
     bad[1, names.index("q_hip_l")] = np.nan
     bad[2, model.nq] = np.inf
