@@ -514,6 +514,20 @@ def joint_starts(info, nu, free):
     return out
 
 
+def limit_entries(model):
+    """[(state, speed, bound, sign)] of the model's joint limits (switching.find_switches) whose
+    joint has one speed u_<joint>: eomc_implicit's limit arrays (the fast path locates a try's
+    entry into them)."""
+    from .switching import find_switches
+    states = {n: i for i, n in enumerate(model.state_names)}
+    out = []
+    for lim in find_switches(model).limits:
+        s = states.get(f"u_{lim.joint}", -1) - model.nq
+        if 0 <= s < model.nu:
+            out.append((lim.state, s, lim.param, lim.sign))
+    return out
+
+
 def implicit_terms(model):
     """The C ``eomc_implicit`` of ``model`` (its NAME_implicit and the structure NAME.json's
     "implicit" gives), or None when the model has none: then method="implicitfast" runs the
@@ -557,6 +571,12 @@ def implicit_terms(model):
             if joint is not None:
                 keep += (ffi.new("int[]", joint),)
                 st.joint = keep[-1]
+            limits = limit_entries(model)
+            if limits:                  # where a try enters a limit (fs_onset_cell locates it)
+                keep += tuple(ffi.new(kind, list(col)) for kind, col in
+                              zip(("int[]", "int[]", "int[]", "double[]"), zip(*limits)))
+                st.nlimit = len(limits)
+                st.limit_state, st.limit_speed, st.limit_bound, st.limit_sign = keep[-4:]
             found = (st, keep, fp)
     model._implicit_struct = found
     return found[0]
@@ -627,6 +647,8 @@ def implicit_for_run(model, p, split=IMPLICITFAST_SPLIT):
     st.nfree, st.free, st.terms_const, st.energy = base.nfree, base.free, base.terms_const, base.energy
     st.joint, st.tree_lu, st.tree_solve = base.joint, base.tree_lu, base.tree_solve
     st.tree_residual = base.tree_residual
+    st.nlimit, st.limit_state, st.limit_speed = base.nlimit, base.limit_state, base.limit_speed
+    st.limit_bound, st.limit_sign = base.limit_bound, base.limit_sign
     return st, (st, lim, base)     # the caller keeps the second alive while C runs
 
 

@@ -1587,7 +1587,8 @@ typedef struct fs_fast {
     int vT, vT1;                 /* ... and whether they hold T's and T1's */
     int tl[2][FS_TOUCH], ntl[2], it;   /* the contacts in touch in T (tl[it]) and T1 (tl[1 - it]),
                                           ascending, made with the caches (fs_secants: valid while vT,
-                                          vT1 are; ntl -1: more than FS_TOUCH) */
+                                          vT1 are; ntl -1: more than FS_TOUCH) or by the lanes (lT, lT1) */
+    int lT, lT1;                 /* T's and T1's list given by the lanes' answer (eomc_fs_request.touch) */
     const double *dun_T;         /* for a step from the terms in this buffer (T or T1), NULL: none */
     double dun_h;                /* ... of this size */
     eomc_fs_request req;         /* the lanes rollout's (ops->terms_lu): its last answer */
@@ -1756,7 +1757,7 @@ static int fs_touching(const fs_fast *q, int *list)
 {
     const int *a = q->tl[q->it], *b = q->tl[1 - q->it];
     int na = q->ntl[q->it], nb = q->ntl[1 - q->it], x = 0, y = 0, n = 0;
-    if (!q->vT || !q->vT1 || na < 0 || nb < 0) return -1;
+    if (!(q->vT || q->lT) || !(q->vT1 || q->lT1) || na < 0 || nb < 0) return -1;
     while (x < na || y < nb) {
         if (y >= nb || (x < na && a[x] < b[y])) list[n++] = a[x++];
         else if (x >= na || b[y] < a[x]) list[n++] = b[y++];
@@ -1914,11 +1915,17 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
         if (!isfinite(q->x1[i])) return EOMC_NONFINITE;
     q->dun_T = NULL;                    /* T1 is overwritten below */
     q->vT1 = 0;
+    q->lT1 = 0;
     a_bare = q->A == q->bare;           /* A unwritten: the lanes answered the last try ahead */
     if (ops->terms_lu && !q->given) {   /* the lanes rollout: maybe made with other rows */
         rq->h = h; rq->A = q->A1; rq->b = q->b1; rq->du = check ? q->du : NULL;
+        rq->touch = q->tl[1 - q->it];   /* T1's list, made by the lanes as they assemble */
         if ((s = ops->terms_lu(ops->ctx, t + h, q->x1, q->T1, rq))) return s;
         done = rq->done;
+        if (done) {
+            q->ntl[1 - q->it] = rq->ntouch;
+            q->lT1 = 1;
+        }
         q->bare = rq->ahead ? q->A1 : NULL;
     } else {
         if (q->bare == q->A1) q->bare = NULL;    /* written below, by the scalar code */
@@ -2100,16 +2107,84 @@ static double fs_onset_fraction(const fs_fast *q, int c, double h)
     return a / (a - b);
 }
 
-/* The grid cell (units of h / MAX_SPLIT from the step's start) in which a failed try [pos, pos + size)
- * touches down, or -1.  Only for a try whose regime changes are touch-downs from out of touch (a
- * contact's depth < 0 at T, > 0 at T1); the onset is where the gap crosses 0 (fs_onset_fraction: the
- * try is the free flight of that point, no force of it in the step), the earliest over such
- * contacts. */
-static int fs_onset_cell(const fs_fast *q, int pos, int size, double h)
+/* Where limit l's depth d = sign (q - bound), from a <= 0 at the try's start xs to b > 0 at its end,
+ * crosses 0, as a fraction of the try (of h): fs_onset_fraction's quadratic, the start's approach
+ * speed h sign u (the joint's speed at xs: a one-speed joint's q' = u) in place of the point's, when
+ * it is convex, else the straight line.  Why: the limit law's slopes come on past the bound, so a
+ * try across it is as explicit in the limit as a touch-down's is in the contact, and the same
+ * location (a part before the crossing's cell, the cell, the walk back) replaces the halving to it:
+ * gymnasium's ant's ankles entering their limits at 7 rad/s took 8-13 tries a step (session 46). */
+static double fs_limit_fraction(const fs_fast *q, int l, const double *xs, double h)
 {
+    const eomc_implicit *imp = q->ops->imp;
+    const double sg = imp->limit_sign[l], bound = q->ops->p[imp->limit_bound[l]];
+    const double a = sg * (xs[imp->limit_state[l]] - bound), b = sg * (q->x1[imp->limit_state[l]] - bound);
+    const double beta = h * sg * xs[q->ops->nq + imp->limit_speed[l]], cq = b - a - beta;
+    if (beta > 0.0 && cq >= 0.0) {
+        double th = -2.0 * a / (beta + sqrt(beta * beta - 4.0 * cq * a));
+        if (th >= 0.0 && th < 1.0) return th;
+    }
+    return a / (a - b);
+}
+
+/* Whether the try from xs to x1 entered a joint limit (fs_limit_fraction: d from <= 0 to > 0), and
+ * every regime change in it is such an entry or a touch-down (fs_switched's classes): each joint-law
+ * slope that changes by more than SWITCH_FACTOR is at the speed of a limit entered; every contact
+ * change a touch-down.  Such a try is located (fs_onset_cell); one with any other change is halved. */
+static int fs_entries(const fs_fast *q, const double *xs)
+{
+    const eomc_fs_ops *ops = q->ops;
+    const eomc_implicit *imp = ops->imp;
+    const double *j0 = q->T + q->L.joint, *j1 = q->T1 + q->L.joint;
+    unsigned char entered[FS_CHAIN];
+    int any = 0;
+    if (imp->nlimit <= 0 || !ops->p || ops->nu > FS_CHAIN) return 0;
+    memset(entered, 0, sizeof entered);
+    for (int l = 0; l < imp->nlimit; l++) {
+        const double sg = imp->limit_sign[l], bound = ops->p[imp->limit_bound[l]];
+        const double a = sg * (xs[imp->limit_state[l]] - bound), b = sg * (q->x1[imp->limit_state[l]] - bound);
+        if (a <= 0.0 && b > 0.0) {
+            entered[imp->limit_speed[l]] = 1;
+            any = 1;
+        }
+    }
+    if (!any) return 0;
+    for (int i = 0; i < 2 * ops->nu; i++)
+        if (fs_changed(j0[i], j1[i]) && !entered[i / 2]) return 0;
+    {
+        FS_EACH_TOUCHING(q, c) {
+            const double *e0 = q->T + q->L.contact + 25 * (size_t)c, *e1 = q->T1 + q->L.contact + 25 * (size_t)c;
+            double a = e0[0], b = e1[0];
+            if (fs_changed(a, b)) {
+                if (!(b > 0.0) || (a > 0.0 && !(b > ONSET_FACTOR * a))) return 0;
+            } else if (a > 0.0 && b > 0.0 && fs_clipped(e1) && !fs_clipped(e0)) {
+                return 0;
+            }
+        }
+    }
+    return 1;
+}
+
+/* The grid cell (units of h / MAX_SPLIT from the step's start) in which a failed try [pos, pos + size)
+ * from xs touches down or enters a limit, or -1.  Only for a try whose regime changes are touch-downs
+ * from out of touch (a contact's depth < 0 at T, > 0 at T1), or, when it failed hard, such touch-downs
+ * and limits entered (fs_entries); the onset is where the gap crosses 0 (fs_onset_fraction: the try is
+ * the free flight of that point, no force of it in the step) or the joint crosses its bound
+ * (fs_limit_fraction), the earliest over them.  Why hard only for limits: a soft failure's halves
+ * mostly pass (locating those too: humanoid +0.7 %, walker2d +0.5 % calls over 128 starts, session 46). */
+static int fs_onset_cell(const fs_fast *q, int pos, int size, double h, const double *xs, int hard)
+{
+    const eomc_implicit *imp = q->ops->imp;
     double theta = INFINITY;
-    int cell;
-    if (fs_switched(q) != FS_TOUCHDOWN) return -1;
+    int cell, kind = fs_switched(q), limits = hard && kind == FS_OTHER && fs_entries(q, xs);
+    if (kind != FS_TOUCHDOWN && !limits) return -1;
+    for (int l = 0; limits && l < imp->nlimit; l++) {      /* the limits entered (fs_entries) */
+        const double sg = imp->limit_sign[l], bound = q->ops->p[imp->limit_bound[l]];
+        if (sg * (xs[imp->limit_state[l]] - bound) <= 0.0 && sg * (q->x1[imp->limit_state[l]] - bound) > 0.0) {
+            double th = fs_limit_fraction(q, l, xs, h);
+            if (th < theta) theta = th;
+        }
+    }
     for (int c = 0; c < q->ops->imp->ncontact; c++) {
         const double *e0 = q->T + q->L.contact + 25 * (size_t)c, *e1 = q->T1 + q->L.contact + 25 * (size_t)c;
         double a = e0[0], b = e1[0], th;
@@ -2208,7 +2283,7 @@ static int fs_assemble_ahead(fs_fast *q, double hs, const double *xs)
 {
     eomc_fs_request *rq = &q->req;
     if (!q->ops->assemble_lu) return 0;
-    rq->h = hs; rq->A = q->A; rq->b = q->b; rq->du = NULL;
+    rq->h = hs; rq->A = q->A; rq->b = q->b; rq->du = NULL; rq->touch = NULL;
     if (q->ops->assemble_lu(q->ops->ctx, xs, q->T, rq) != EOMC_OK) rq->ahead = 0;
     return rq->ahead;
 }
@@ -2377,8 +2452,9 @@ static int fs_walk_size(int pos, int size, int grid, double ratio, double split)
  * walker2d 0.079 / 0.271 -> 0.060 / 0.208, ant 0.503 / 0.500 -> 0.497 / 0.489.  Tried with it and
  * dropped: the rest of the step at once after the onset cell (humanoid 64 starts 33200 calls, but
  * 3 rows status 20, walker2d 2) and a walk up by doubling off the grid (humanoid 32857-33325, one
- * lanes row status 20).  A limit's onset is not located: the terms hold its slopes, not its distance
- * to the bound.
+ * lanes row status 20).  A limit's onset was not located then (the terms hold its slopes, not its
+ * distance to the bound); session 46 gave the step the limits' bounds (eomc_implicit.nlimit ..,
+ * eomc_fs_ops.p) and locates an entry where a try fails hard (fs_entries, fs_limit_fraction).
  *
  * Session 30 (benchmarks/results/fixedstep.md's notes; the rule in /work/notes/s30/walkback-rule.diff):
  * traced, 80 % of the humanoid's extra calls are sub-steps taken inside split steps, most of them the walk
@@ -2419,6 +2495,7 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         if ((s = ops->terms(ops->ctx, t, x, q->T))) return s;
         q->have_T = 1;
         q->vT = 0;
+        q->lT = 0;
         q->hA = 0.0;
     }
     double before = INFINITY;          /* the ratio of the twice longer try from here */
@@ -2462,7 +2539,7 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
             if (s || (ratio > HARD_FACTOR * split && fs_switched(q) == FS_OTHER)) hard_end = pos + size;
             before = s ? INFINITY : ratio;
             if (!s) {
-                int cell = fs_onset_cell(q, pos, size, hs);
+                int cell = fs_onset_cell(q, pos, size, hs, xs, ratio > HARD_FACTOR * split);
                 if (cell >= 0) {
                     onset = cell;
                     located = cell > pos;
@@ -2508,6 +2585,9 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
             int v = q->vT;
             q->vT = q->vT1;
             q->vT1 = v;
+            v = q->lT;
+            q->lT = q->lT1;
+            q->lT1 = v;
             q->it = 1 - q->it;
         }
         if (pos < MAX_SPLIT) {                  /* a sub-step ended inside the step */

@@ -44,6 +44,8 @@ typedef struct eomc_fs_ops {
      * assembles its own).  The lanes rollout's (eomc_rollout.c): a split step's try at another size
      * than its matrix was made for. */
     int (*assemble_lu)(void *ctx, const double *x, double *out, eomc_fs_request *req);
+    /* The run's parameters (NULL: none known): the joint limits' bounds (eomc_implicit.limit_bound) */
+    const double *p;
 } eomc_fs_ops;
 
 /* Doubles of work eomc_fs_run needs for nx states. */

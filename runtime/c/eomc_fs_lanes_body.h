@@ -343,10 +343,13 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
     const int *up;
     const double *du[FSL_W];
     h = zero;
+    int *tl[FSL_W], ntl[FSL_W];                      /* the lanes' contacts in touch (req->touch) */
     for (int l = 0; l < FSL_W; l++) {
         h[l] = req[l] ? req[l]->h : 0.0;
         du[l] = req[l] ? req[l]->du : NULL;
         act[l] = req[l] ? -1 : 0;
+        tl[l] = req[l] ? req[l]->touch : NULL;
+        ntl[l] = 0;
     }
     hh = h * h;
 #define FSL_T(e) (*(const FSL_V *)(OUT + (size_t)(e) * stride))    /* term e in the group's lanes */
@@ -361,6 +364,11 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
             if (!FSL_ANY(&on)) continue;
             w->touch[nt++] = c;
             if (w->cross[c]) w->xon[nx++] = c;
+            for (int l = 0; l < FSL_W; l++)          /* each asked lane's own list (req->touch) */
+                if (on[l] && tl[l]) {
+                    if (ntl[l] >= 0 && ntl[l] < FS_TOUCH) tl[l][ntl[l]++] = c;
+                    else ntl[l] = -1;
+                }
         }
         if (nx > 0) P = fsl_grow(w, w->xon, nx);
     }
@@ -527,6 +535,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
             if (q == NULL) continue;
             q->done = q->ahead = ok;
             if (!ok) continue;
+            q->ntouch = ntl[l];
             q->ratio = isfinite(ratio[l]) ? ratio[l] : INFINITY;
             for (int i = 0; i < nu; i++) ahead[l][i] = D[i][l];
             for (int i = 0; i < w->nq; i++) ahead[l][nu + i] = V[i][l];

@@ -3122,7 +3122,7 @@ static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, 
                             double *x, outw *ow, double **pos)
 {
     fs_glue g = {c, pj, ow, o->implicit, -1, NULL, NULL, 0, NULL, 0, 0.0, 0.0, 0.0, 0.0, NAN};
-    eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept, NULL, NULL, 0, 0, NULL, NULL};
+    eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept, NULL, NULL, 0, 0, NULL, NULL, NULL};
     int fast = fs_fast_ok(c, o, pj), s;
     c->st->watch_lo = c->st->watch_hi = NAN;
     if (o->watch_output > 0 && o->watch_output <= c->m->noutput && c->m->outputs && !c->fb) {
@@ -3144,6 +3144,7 @@ static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, 
         ops.imp = o->implicit;
         ops.nq = c->m->nq;
         ops.nu = c->m->nu;
+        ops.p = c->p;
     }
     s = eomc_fs_run(&ops, c->st, c->n, o->h0, o->max_steps, t0, t1, x,
                     take(pos, fast ? o->implicit->work_len : eomc_fs_work_size(c->n)));

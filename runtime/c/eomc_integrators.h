@@ -72,6 +72,10 @@ typedef struct eomc_fs_request {
     int ahead;                /* out: du1 and v1 given, A and b not written */
     double ratio;             /* out: the residual ratio (fs_fast_try's) */
     const double *du1, *v1;   /* out: nu and nq values the callee keeps until its next call */
+    int *touch;               /* in: room for 64 contacts (NULL: not asked); out with done: the
+                                 contacts in touch at x (depth > 0), ascending, ntouch of them
+                                 (-1: more than 64) -- what fs_assemble's scan would list */
+    int ntouch;
 } eomc_fs_request;
 
 typedef struct eomc_implicit {
@@ -126,6 +130,15 @@ typedef struct eomc_implicit {
     void (*tree_solve)(const double *A, double *b, double *c);
     /* NULL, or NAME_tree_residual: r = M du - h f over M's tree pattern (fs_residual's sums) */
     void (*tree_residual)(const double *M, const double *f, const double *du, double h, double *r);
+    /* 0, NULL: none; else the joint limits (runtime/switching.find_switches) of one-speed joints:
+       per limit the x index of the joint's coordinate, its speed (the joint law's), the parameter
+       index of its bound and its sign (+1 upper, d = q - bound; -1 lower, d = bound - q).  A try
+       that fails with a limit entered (d from <= 0 to > 0) and no other regime change than such
+       entries and touch-downs ends its next sub-step at the earliest crossing (eomc_fixedstep.c,
+       fs_onset_cell) instead of halving towards it */
+    int nlimit;
+    const int *limit_state, *limit_speed, *limit_bound;
+    const double *limit_sign;
 } eomc_implicit;
 
 /* One joint limit's spring whose stored energy the watched output leaves out (MJCF's: unilateral

@@ -245,17 +245,26 @@ def _ant_from_qpos0(m, t_end, t_eval, start):
     return names, dt, run, step
 
 
-def test_a_hard_split_does_not_retry_the_half_that_holds_the_onset(ant_euler):
+def _without_limit_location(monkeypatch, m):
+    """m's runs from here with no limit table (eomc_implicit.nlimit 0): the steps taken before limit
+    entries were located (session 46), bit for bit -- the paths the older tests were measured on."""
+    from eomc.runtime import simulate
+    monkeypatch.setattr(simulate, "limit_entries", lambda model: [])
+    monkeypatch.setitem(m.__dict__, "_implicit_struct", None)     # made again (and put back after)
+
+
+def test_a_limit_entered_at_speed_is_located_not_bisected(ant_euler, monkeypatch):
     """gymnasium's ant from its qpos0 at 10 ms: at t = 0.15 s its four ankles swing into their upper
     limits at 7.3 rad/s (the limit law's stiffness slope 0 at the step's start, thousands at its end),
-    and the step's residual ratio is 25-56 at every size down to the onset's 1/64 cell.  Bisecting,
-    a try that failed hard ended past the onset; when its first half then passes without a regime
-    change, the onset lies in its second half, and trying that half whole only fails again (42, 56,
-    35, 37 on this step): it is split at once (eomc_fixedstep.c, fs_fast_advance: hard_end).  The step
-    takes 11 tries instead of 15, and its end is the bisection's (the skipped tries were all
-    failures: the run's state after the step, at t = 0.2 and its 1 s error against Radau are the same
-    bits as before, measured).  The Euler build: its count and the slopes' exact 0 at the step's start
-    were measured there (the quaternion build's run reaches t = 0.15 s with an ankle's slope 2.5e-18)."""
+    and the step's residual ratio is 25-56 at every size down to the onset's 1/64 cell.  The try that
+    fails hard with only limits entered is located as a touch-down is (eomc_fixedstep.c,
+    fs_onset_cell with eomc_implicit's limits, session 46): the part before the crossing's cell, the
+    cell, the walk back -- 7 tries.  Without the limits (nlimit 0: what a model with no limit table
+    gets) the step is bisected, each second half of a hard failure split at once (hard_end, session
+    18): 11 tries.  Both end within a few mm of each other (first-order steps of other sizes).  The
+    Euler build: its counts and the slopes' exact 0 at the step's start were measured there (the
+    quaternion build's run reaches t = 0.15 s with an ankle's slope 2.5e-18)."""
+    from eomc.runtime import simulate
     m = ant_euler
     names, dt, run, step = _ant_from_qpos0(m, 0.2, 0.01 * np.arange(21), 15)
     layout = m.metadata["implicit"]["layout"]
@@ -267,8 +276,15 @@ def test_a_hard_split_does_not_retry_the_half_that_holds_the_onset(ant_euler):
     assert np.all(slopes[0] == 0.0) and np.all(slopes[1] > 1e3)         # the limits engage in this step
     assert np.all(np.abs(run.x[15][[m.nq + i for i in ankles]]) > 7.0)  # at 7.3 rad/s
     assert step.status == 0 and np.array_equal(step.x[-1], run.x[16])
-    # the start's call and 11 tries (15 with every second half tried: 16 calls)
-    assert step.stats["nfev"] == 12
+    assert len(simulate.limit_entries(m)) == 16                         # its 8 hinges, both sides
+    assert step.stats["nfev"] == 8                                      # the start's call and 7 tries
+    _without_limit_location(monkeypatch, m)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        halved = m.simulate(run.x[15], (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt])
+    assert halved.status == 0 and halved.stats["nfev"] == 12            # the start's call and 11 tries
+    q = slice(0, m.nq)
+    assert np.abs(halved.x[-1][q] - step.x[-1][q]).max() < 5e-3
 
 
 def test_the_avx2_build_of_the_step_gives_the_sse2_builds_bits(ant, monkeypatch):
@@ -310,7 +326,7 @@ def _unchecked_step(m, x, h):
     return np.array(x_last)
 
 
-def test_a_falling_foots_touch_down_is_located_in_its_own_cell(ant):
+def test_a_falling_foots_touch_down_is_located_in_its_own_cell(ant, monkeypatch):
     """gymnasium's ant from its qpos0 at 10 ms: at t = 0.19 s its feet, falling, touch down inside
     the step.  The whole try fails and the touch-down is located (eomc_fixedstep.c, fs_onset_cell):
     the cell of h/64 where the gap crosses 0.  The straight line between the try's two ends put it in
@@ -319,8 +335,10 @@ def test_a_falling_foots_touch_down_is_located_in_its_own_cell(ant):
     quadratic from the foot's speed at the start (fs_onset_fraction) puts it in cell 23, where the
     steps say it is (below: 23 cells end out of touch, one more in touch), and the step takes 9
     tries instead of 10 (bench_fixedstep's ant row: 121 calls instead of 122).  Fails on main
-    c0b19ef9 (11 calls)."""
+    c0b19ef9 (11 calls).  The path there without the limits' location (its ankles' limit entry at
+    t = 0.15 s located, the run reaches t = 0.19 s elsewhere)."""
     m = ant
+    _without_limit_location(monkeypatch, m)
     names, dt, run, step = _ant_from_qpos0(m, 0.19, [0.19], -1)
     x = run.x[-1]
     (start, layout), (end, _) = implicit_terms_at(m, x), implicit_terms_at(m, _unchecked_step(m, x, dt))
