@@ -109,7 +109,9 @@ _PAIRS_LINE = re.compile(r"^(\s+)const double (t\d+) = (eomc_pairs|eomc_pairs_sl
 _VOID_TEMP = re.compile(r"^\s+\(void\)t\d+;$")
 _GUARD_LINE = re.compile(r"^(\s+)if \((.*)\) return (EOMC_[A-Z_]+);$")
 # (or NAME_implicit's short form when its pairs' loop sums what it wrote: compiler/tree/emit.finite_return)
-_FINITE_RETURN = re.compile(r"^(\s+)return (?:(t\d+|S_\[\d+\]) - \2 == 0\.0 \? [A-Za-z_]\w*_finite_wide\(out, \d+\) : )?"
+_FINITE_RETURN = re.compile(r"^(\s+)return (?:(t\d+|S_\[\d+\]) - \2 == 0\.0 \? (?:[A-Za-z_]\w*_finite_wide\(out, \d+\)"
+                            r"|\([A-Za-z_]\w*_finite_wide\(out, \d+\) == EOMC_OK \? [A-Za-z_]\w*_finite_wide\(out \+ \d+, \d+\)"
+                            r" : EOMC_NONFINITE\)) : )?"
                             r"[A-Za-z_]\w*_finite(?:_wide)?\((?:xdot|out), \d+\);$")
 # a branch of the scalar code (a contact's depth test, a pair's broad phase): in lanes, a mask
 _IF_LINE = re.compile(r"^(\s+)if \((.*)\) \{$")

@@ -102,10 +102,11 @@ def tree_implicit_body(ctx, program, guards, size):
 
 def finite_return(name, program, pr, lines, written, size):
     """NAME_implicit's last line: NAME_finite_wide over out[0 .. size), or, when the pairs' loop
-    wrote its slope block into out[off .. size) (``written``; contact/table.slopes_into) and its
-    token is in reach of the return, NAME_finite_wide over out[0 .. off) when the token -- the
-    sum of what the loop wrote into the block, its other entries the loop's zeros -- is finite,
-    else over all of out[] (the same verdict: every entry finite).  Why: on gymnasium's humanoid
+    wrote its slope block into out[off .. end) (``written``; contact/table.slopes_into) and its
+    token is in reach of the return, NAME_finite_wide over out[0 .. off) and out[end .. size) when
+    the token -- the sum of what the loop wrote into the block, its other entries the loop's zeros
+    (or records a depth of 0 keeps: table.KEPT_BLOCK, read by no one) -- is finite, else over all of
+    out[] (the same verdict: every entry finite).  Why: on gymnasium's humanoid
     the block is 2725 of the 4738 outputs, all but a few dozen of them zeros at every call, and the
     check read them all (session 25's perf: ~0.3 us of its ~7 us call in NAME_finite_wide)."""
     from ..contact.table import PairTableSlopesInto
@@ -114,11 +115,18 @@ def finite_return(name, program, pr, lines, written, size):
     if not written or len(calls) != 1 or not FINITE_BY_SUM:
         return whole
     off = min(i for _, i in written)
+    end = max(i for _, i in written) + 1
     token = pr._names[calls[0]]
-    if {i for _, i in written} != set(range(off, size)) or not any(
+    if {i for _, i in written} != set(range(off, end)) or end > size or not any(
             line.startswith(f"{IND}const double {token} = eomc_pairs_slopes(") for line in lines):
         return whole
-    return (f"{IND}return {token} - {token} == 0.0 ? {name}_finite_wide(out, {off}) "
+    if end == size:
+        return (f"{IND}return {token} - {token} == 0.0 ? {name}_finite_wide(out, {off}) "
+                f": {name}_finite_wide(out, {size});")
+    # outputs after the block (NAME_implicit's energy, implicit_layout): checked apart, the block
+    # skipped all the same (session 46: the humanoid's energy slot made the check whole again)
+    return (f"{IND}return {token} - {token} == 0.0 ? ({name}_finite_wide(out, {off}) == EOMC_OK "
+            f"? {name}_finite_wide(out + {end}, {size - end}) : EOMC_NONFINITE) "
             f": {name}_finite_wide(out, {size});")
 
 

@@ -34,6 +34,23 @@ def limbs(tmp_path_factory):
     return model, source.read_text()
 
 
+@pytest.fixture(scope="module")
+def limbs_lanes(tmp_path_factory):
+    """The limbs on a floor built for the lanes rollout too: NAME_implicit's out[] then ends with the
+    energy, an output after the pairs' block (compiler/tree/lower.implicit_layout)."""
+    from eomc.compiler.mjcf.model import MjcfModel
+    tmp = tmp_path_factory.mktemp("into_lanes")
+    path = tmp / "limbs.xml"       # on a floor: a model with contacts has the energy output
+    path.write_text(LIMBS.replace("<worldbody>", '<worldbody><geom name="floor" type="plane" size="2 2 0.1"/>', 1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(MjcfModel(path, pairs=True), "lintol",
+                             functions=("rhs", "outputs", "implicit", "implicit_batch"),
+                             cache_dir=tmp / "cache", progress=False)
+    (source,) = tmp.glob("cache/**/lintol.c")
+    return model, source.read_text()
+
+
 def _implicit(m, x, fill):
     """(status, out) of NAME_implicit at x with out[] holding ``fill`` before the call."""
     out = np.array(fill, dtype=float)
@@ -104,8 +121,24 @@ def test_the_return_checks_the_block_through_the_loops_sum(limbs):
     assert "return chk;" in source and "chk += (sl[0] + sl[1]) + (sl[2] + sl[3]);" in source
 
 
-def test_the_verdict_is_every_entrys_at_states_in_and_out_of_touch(limbs):
-    m, _ = limbs
+def test_outputs_after_the_block_are_checked_apart(limbs_lanes):
+    """The energy after the block (the lanes rollout's build): out[] before the block and after it
+    are checked, the block through the sum (session 46: the whole out[] was read again)."""
+    m, source = limbs_lanes
+    layout = m.metadata["implicit"]["layout"]
+    size, energy = layout["size"], layout["energy"]
+    at, length = m.metadata["implicit_batch"]["rows_block"]      # the pairs' records, after the floor's
+    assert at > layout["contact"] and at + length == energy == size - 1
+    (ret,) = [line.strip() for line in source.splitlines() if line.strip().startswith("return t")
+              and "lintol_finite_wide(out, " in line]
+    token = ret.split()[1]
+    assert ret == (f"return {token} - {token} == 0.0 ? (lintol_finite_wide(out, {at}) == EOMC_OK "
+                   f"? lintol_finite_wide(out + {energy}, 1) : EOMC_NONFINITE) : lintol_finite_wide(out, {size});")
+
+
+@pytest.mark.parametrize("which", ["limbs", "limbs_lanes"])
+def test_the_verdict_is_every_entrys_at_states_in_and_out_of_touch(which, request):
+    m, _ = request.getfixturevalue(which)
     size = m.metadata["implicit"]["layout"]["size"]
     names, rng = list(m.state_names), np.random.default_rng(5)
     p = np.array(m.ffi.unpack(m._default_p, len(m.param_names)), dtype=float)
