@@ -2068,6 +2068,19 @@ static int fs_releases(const fs_fast *q)
     return fell;
 }
 
+/* Where a depth from a <= 0 to b > 0 over a try crosses 0, as a fraction of the try: the quadratic
+ * a + th beta + th^2 (b - a - beta) where it is convex (beta > 0, the start's approach speed times
+ * h, and b - a >= beta), its root in (0, 1) in the stable form, else the straight line a / (a - b). */
+static double fs_crossing(double a, double b, double beta)
+{
+    const double cq = b - a - beta;
+    if (beta > 0.0 && cq >= 0.0) {
+        double th = -2.0 * a / (beta + sqrt(beta * beta - 4.0 * cq * a));
+        if (th >= 0.0 && th < 1.0) return th;
+    }
+    return a / (a - b);
+}
+
 /* Where contact c's depth, from a < 0 at T to b > 0 at T1 over a try of h, crosses 0, as a fraction
  * of the try: the gap's quadratic a + th (h r0) + th^2 (b - a - h r0), r0 the point's approach speed
  * at T (its velocity along the contact's normal, which the end's stiffness slope K gives: each row
@@ -2086,7 +2099,7 @@ static double fs_onset_fraction(const fs_fast *q, int c, double h)
 {
     const double *e0 = q->T + q->L.contact + 25 * (size_t)c, *e1 = q->T1 + q->L.contact + 25 * (size_t)c;
     const double *K = e1 + 7, *v0 = e0 + 4;
-    double a = e0[0], b = e1[0], big = 0.0, beta, cq;
+    double a = e0[0], b = e1[0], big = 0.0, beta;
     int r = -1;
     if (q->ops->imp->terms_whole) {             /* the lanes: T's vp and T1's K may not be copied yet */
         q->ops->imp->terms_whole(q->T);
@@ -2096,15 +2109,20 @@ static double fs_onset_fraction(const fs_fast *q, int c, double h)
         double s2 = K[3 * i] * K[3 * i] + K[3 * i + 1] * K[3 * i + 1] + K[3 * i + 2] * K[3 * i + 2];
         if (s2 > big) { big = s2; r = i; }
     }
-    if (r >= 0 && isfinite(big)) {
-        beta = h * fabs(K[3 * r] * v0[0] + K[3 * r + 1] * v0[1] + K[3 * r + 2] * v0[2]) / sqrt(big);
-        cq = b - a - beta;
-        if (beta > 0.0 && cq >= 0.0) {          /* convex: one root in (0, 1), the stable form */
-            double th = -2.0 * a / (beta + sqrt(beta * beta - 4.0 * cq * a));
-            if (th >= 0.0 && th < 1.0) return th;
-        }
-    }
-    return a / (a - b);
+    beta = r >= 0 && isfinite(big) ? h * fabs(K[3 * r] * v0[0] + K[3 * r + 1] * v0[1] + K[3 * r + 2] * v0[2]) / sqrt(big)
+                                   : 0.0;
+    return fs_crossing(a, b, beta);
+}
+
+/* Limit l's depth d = sign (q - bound) at the try's start xs (*a) and end x1 (*b); 1 when the try
+ * entered it (from <= 0 to > 0). */
+static int fs_entered(const fs_fast *q, int l, const double *xs, double *a, double *b)
+{
+    const eomc_implicit *imp = q->ops->imp;
+    const double sg = imp->limit_sign[l], bound = q->ops->p[imp->limit_bound[l]];
+    *a = sg * (xs[imp->limit_state[l]] - bound);
+    *b = sg * (q->x1[imp->limit_state[l]] - bound);
+    return *a <= 0.0 && *b > 0.0;
 }
 
 /* Where limit l's depth d = sign (q - bound), from a <= 0 at the try's start xs to b > 0 at its end,
@@ -2117,14 +2135,9 @@ static double fs_onset_fraction(const fs_fast *q, int c, double h)
 static double fs_limit_fraction(const fs_fast *q, int l, const double *xs, double h)
 {
     const eomc_implicit *imp = q->ops->imp;
-    const double sg = imp->limit_sign[l], bound = q->ops->p[imp->limit_bound[l]];
-    const double a = sg * (xs[imp->limit_state[l]] - bound), b = sg * (q->x1[imp->limit_state[l]] - bound);
-    const double beta = h * sg * xs[q->ops->nq + imp->limit_speed[l]], cq = b - a - beta;
-    if (beta > 0.0 && cq >= 0.0) {
-        double th = -2.0 * a / (beta + sqrt(beta * beta - 4.0 * cq * a));
-        if (th >= 0.0 && th < 1.0) return th;
-    }
-    return a / (a - b);
+    double a, b;
+    fs_entered(q, l, xs, &a, &b);
+    return fs_crossing(a, b, h * imp->limit_sign[l] * xs[q->ops->nq + imp->limit_speed[l]]);
 }
 
 /* Whether the try from xs to x1 entered a joint limit (fs_limit_fraction: d from <= 0 to > 0), and
@@ -2137,24 +2150,23 @@ static int fs_entries(const fs_fast *q, const double *xs)
     const eomc_implicit *imp = ops->imp;
     const double *j0 = q->T + q->L.joint, *j1 = q->T1 + q->L.joint;
     unsigned char entered[FS_CHAIN];
+    double a, b;
     int any = 0;
     if (imp->nlimit <= 0 || !ops->p || ops->nu > FS_CHAIN) return 0;
     memset(entered, 0, sizeof entered);
-    for (int l = 0; l < imp->nlimit; l++) {
-        const double sg = imp->limit_sign[l], bound = ops->p[imp->limit_bound[l]];
-        const double a = sg * (xs[imp->limit_state[l]] - bound), b = sg * (q->x1[imp->limit_state[l]] - bound);
-        if (a <= 0.0 && b > 0.0) {
+    for (int l = 0; l < imp->nlimit; l++)
+        if (fs_entered(q, l, xs, &a, &b)) {
             entered[imp->limit_speed[l]] = 1;
             any = 1;
         }
-    }
     if (!any) return 0;
     for (int i = 0; i < 2 * ops->nu; i++)
         if (fs_changed(j0[i], j1[i]) && !entered[i / 2]) return 0;
     {
         FS_EACH_TOUCHING(q, c) {
             const double *e0 = q->T + q->L.contact + 25 * (size_t)c, *e1 = q->T1 + q->L.contact + 25 * (size_t)c;
-            double a = e0[0], b = e1[0];
+            a = e0[0];
+            b = e1[0];
             if (fs_changed(a, b)) {
                 if (!(b > 0.0) || (a > 0.0 && !(b > ONSET_FACTOR * a))) return 0;
             } else if (a > 0.0 && b > 0.0 && fs_clipped(e1) && !fs_clipped(e0)) {
@@ -2179,11 +2191,8 @@ static int fs_onset_cell(const fs_fast *q, int pos, int size, double h, const do
     int cell, kind = fs_switched(q), limits = hard && kind == FS_OTHER && fs_entries(q, xs);
     if (kind != FS_TOUCHDOWN && !limits) return -1;
     for (int l = 0; limits && l < imp->nlimit; l++) {      /* the limits entered (fs_entries) */
-        const double sg = imp->limit_sign[l], bound = q->ops->p[imp->limit_bound[l]];
-        if (sg * (xs[imp->limit_state[l]] - bound) <= 0.0 && sg * (q->x1[imp->limit_state[l]] - bound) > 0.0) {
-            double th = fs_limit_fraction(q, l, xs, h);
-            if (th < theta) theta = th;
-        }
+        double a, b, th;
+        if (fs_entered(q, l, xs, &a, &b) && (th = fs_limit_fraction(q, l, xs, h)) < theta) theta = th;
     }
     for (int c = 0; c < q->ops->imp->ncontact; c++) {
         const double *e0 = q->T + q->L.contact + 25 * (size_t)c, *e1 = q->T1 + q->L.contact + 25 * (size_t)c;
