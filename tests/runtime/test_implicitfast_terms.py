@@ -1318,3 +1318,34 @@ def test_a_pairs_bias_below_two_balls_is_the_derivative_of_its_relative_velocity
         old_worst = max(old_worst, np.linalg.norm(old - fd) / np.linalg.norm(fd))
         checked += 1
     assert checked >= 4 and old_worst > 1e-3, (checked, old_worst)
+
+
+def test_each_rollout_row_locates_limits_at_its_own_bounds(ant, monkeypatch):
+    """The limits' location reads the run's parameters (eomc_fs_ops.p): each row of a rollout with its
+    own ankle limits takes simulate's steps with that row's p, bit for bit, the rows differ (the
+    bounds are read, not the defaults), and each differs from the same row without limit location.  gymnasium's ant from its qpos0 at 10 ms over 0.2 s: its ankles
+    enter their limits at t = 0.15 s."""
+    m = ant
+    names, params = list(m.state_names), list(m.param_names)
+    x0 = _rest(m)
+    x0[names.index("q_root_z")] = 0.75
+    p0 = np.array(m.ffi.unpack(m._default_p, len(params)), dtype=float)
+    P = np.tile(p0, (3, 1))
+    for row, shift in enumerate((0.0, -0.05, 0.05)):
+        for i in range(1, 5):
+            for side in ("lo", "hi"):
+                P[row, params.index(f"limit_{side}_ankle_{i}")] += shift
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")       # the start is outside the ankles' ranges (warned)
+        res = eomc.rollout(m, np.tile(x0, (3, 1)), steps=20, dt=0.01, method="implicitfast", p=P)
+        ones = [m.simulate(x0, (0.0, 0.2), method="implicitfast", dt=0.01, p=P[i], t_eval=[0.2]) for i in range(3)]
+    assert (res.status == 0).all()
+    for i in range(3):
+        assert ones[i].status == 0 and np.array_equal(res.x[i], ones[i].x[-1])
+    assert not np.array_equal(res.x[0], res.x[1]) and not np.array_equal(res.x[0], res.x[2])
+    _without_limit_location(monkeypatch, m)      # and each row's entry was located: bisected, it ends elsewhere
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        halved = eomc.rollout(m, np.tile(x0, (3, 1)), steps=20, dt=0.01, method="implicitfast", p=P)
+    assert (halved.status == 0).all()
+    assert all(not np.array_equal(res.x[i], halved.x[i]) for i in range(3))
