@@ -14,6 +14,7 @@ from ..emit.printer import CPrinter
 from ..emit.bodies import IND, singular_guard, store, temps, extra_state_rows, needed_assignments, split_on
 from ..ir import Names
 from ..passes.timing import compiler_step
+from .zero_guards import with_threshold_guards
 from ..ir.opcount import count_ops
 
 __all__ = ["tree_rhs_body", "tree_matrix_body", "tree_jacobian_body", "tree_jacobian_ops", "stores_zeroing_runs",
@@ -85,6 +86,7 @@ def tree_implicit_body(ctx, program, guards, size):
     from ..contact.ground_table import ground_into
     program, written = slopes_into(program, "imp")     # the pairs' loop writes its slopes into out[]
     program, ground = ground_into(program, "imp")       # and the ground points' loop its records
+    program, guards = with_threshold_guards(program, guards or ())       # the limits' sides skipped inside
     pr = ctx.printer(program)
     if guards:
         lines, pr = guarded_temps(program, pr, guards)

@@ -164,7 +164,8 @@ def test_the_guarded_implicit_terms_are_the_straight_line_ones_near_and_far_from
     source = next((tmp_path / "guarded").rglob("oneleg.c")).read_text()
     # NAME_implicit writes its constant outputs, then calls NAME_implicit_var: the body (d6f2a5a)
     start = source.index("int oneleg_implicit_var(" if "int oneleg_implicit_var(" in source else "int oneleg_implicit(")
-    assert _with_parts(source, "implicit", start).count("} else {") == 2 + 13
+    # and the hip's limit (compiler/tree/zero_guards.py): each side's torque and its slopes
+    assert _with_parts(source, "implicit", start).count("} else {") == 2 + 13 + 2 * 2
     rng = np.random.default_rng(29)
     z = guarded.state_names.index("q_trunk_floating_z")
     X = rng.normal(scale=1.0, size=(300, guarded.nx))
