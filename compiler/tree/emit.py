@@ -58,7 +58,8 @@ def tree_rhs_body(ctx, program, guards=()):
     ball joint in gimbal lock) is EOMC_SINGULAR_MASS_MATRIX.  The "Dpiv" results are those
     margins (D - tol·sum, see aba.PIVOT_TOL), so the test is "every margin > 0".
     ``guards``: the contacts' broad phase (compiler/emit/guards.py), bodies far above the
-    ground skipped."""
+    ground skipped) and the joint limits' sides, skipped inside the range (.zero_guards)."""
+    program, guards = with_threshold_guards(program, guards or ())
     pr = ctx.printer(program)
     if guards:
         lines, pr = guarded_temps(program, pr, guards)

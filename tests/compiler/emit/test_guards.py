@@ -15,6 +15,7 @@ import sympy as sm
 
 import eomc
 import eomc.compiler.formulations.recursive as recursive
+import eomc.compiler.tree.emit as tree_emit
 from eomc.compiler.emit.guards import guarded_temps
 from eomc.compiler.emit.printer import CPrinter
 from eomc.compiler.ir import Program
@@ -92,7 +93,7 @@ def _build(tmp_path, tag):
 @pytest.fixture(scope="module")
 def oneleg(tmp_path_factory):
     """(guarded, straight, their cache dir): the one-leg robot built as the compiler builds it,
-    and with the rhs's and NAME_implicit's straight-line bodies (no broad phase).  One pair of
+    and with the rhs's and NAME_implicit's straight-line bodies (no broad phase, no limit guards).  One pair of
     builds serves both tests below (each read only its own function: rhs, or implicit), where
     each test built its own pair (4 builds -> 2)."""
     tmp = tmp_path_factory.mktemp("guards")
@@ -100,6 +101,7 @@ def oneleg(tmp_path_factory):
     plain_rhs = recursive.tree_rhs_body
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(recursive, "tree_rhs_body", lambda ctx, prog, guards=(): plain_rhs(ctx, prog))
+        mp.setattr(tree_emit, "with_threshold_guards", lambda program, guards=(): (program, list(guards)))
         mp.setattr(recursive, "tree_implicit_body", lambda ctx, prog, guards, size:
                    recursive.plain_body(ctx, prog, "imp", (size,), "out"))
         straight = _build(tmp, "straight")
@@ -123,7 +125,8 @@ def test_the_guarded_rhs_is_the_straight_line_rhs_near_and_far_from_the_ground(o
     # one block per body (the trunk's 8 corners; the leg's foot and far end), one per point inside
     points = sum(n.startswith("depth_") for n in guarded.output_names)
     assert points == 13
-    assert _rhs_text(tmp_path / "guarded").count("} else {") == 2 + points
+    # and one per side of the hip's limit (compiler/tree/zero_guards.py)
+    assert _rhs_text(tmp_path / "guarded").count("} else {") == 2 + points + 2
     assert "} else {" not in _rhs_text(tmp_path / "straight")
     rng = np.random.default_rng(33)
     z = guarded.state_names.index("q_trunk_floating_z")

@@ -102,6 +102,14 @@ def test_a_threshold_inside_another_guard_is_left_to_it():
                       results=((("imp", 0), t[1] + b),))
     assert len(with_threshold_guards(program, ())[1]) == 1
     assert with_threshold_guards(program, [(e - 1, (t[1],), ())])[1] == [(e - 1, (t[1],), ())]
+    # and one whose temporary an export reads (a pair's choice of its nearest points, a step()
+    # inside the pair's block): two guards over one temporary would print it after its reader
+    read = Program(inputs=(q, u, hi, e, b), ntemp=6,
+                   assignments=((t[0], r), (t[1], sm.tanh(t[0]) * sm.sqrt(u ** 2 + e) * b * u ** 3),
+                                (t[2], t[1] * e + u)),
+                   results=((("imp", 0), t[2] + b),))
+    assert len(with_threshold_guards(read, ())[1]) == 1
+    assert with_threshold_guards(read, [(e - 1, (t[2],), ())])[1] == [(e - 1, (t[2],), ())]
 
 
 def _build(path, cache, guarded):
@@ -128,7 +136,7 @@ def _implicit(model, X, r):
 
 
 def test_the_guarded_implicit_is_the_straight_one_in_and_past_the_range(tmp_path):
-    """The leg's NAME_implicit with its limits' sides guarded against the build without: the same
+    """The leg's NAME_implicit and rhs with its limits' sides guarded against the build without: the same
     outputs (to the order of a sum's terms) at random states inside the range and past either side
     of each limit, and the guards are there (one per side and use)."""
     path = tmp_path / "leg.xml"
@@ -137,7 +145,7 @@ def test_the_guarded_implicit_is_the_straight_one_in_and_past_the_range(tmp_path
     straight = _build(path, tmp_path / "s", False)
     text = next((tmp_path / "g").rglob("leg.c")).read_text()
     plain = next((tmp_path / "s").rglob("leg.c")).read_text()
-    assert text.count("if (!(") >= plain.count("if (!(") + 6       # 3 joints x 2 sides, at least
+    assert text.count("if (!(") >= plain.count("if (!(") + 12      # 3 joints x 2 sides, in both functions
     names = list(guarded.state_names)
     rng = np.random.default_rng(3)
     lo = np.radians([-60.0, -150.0, -45.0])
@@ -156,6 +164,9 @@ def test_the_guarded_implicit_is_the_straight_one_in_and_past_the_range(tmp_path
     a, b = _implicit(guarded, X, r), _implicit(straight, X, r)
     scale = np.maximum(np.abs(b), 1.0)
     assert np.max(np.abs(a - b) / scale) < 1e-13
+    # the rhs's torques too (its guards are among the text's above)
+    f, g = guarded.rhs_many(0.0, X, r=r), straight.rhs_many(0.0, X, r=r)
+    assert np.max(np.abs(f - g) / np.maximum(np.abs(g), 1.0)) < 1e-13
     past = np.array([k % 3 != 0 for k in range(60)])
     joint = guarded.metadata["implicit"]["layout"]["joint"]
     dq = [joint + 2 * names.index(f"q_{n}") + 1 for n in ("hip", "knee", "ankle")]   # -d(tau)/dq
