@@ -43,7 +43,8 @@ class _Walk:
     """Z(e): the thresholds d at which ``e`` is ±0 whenever d <= 0; I(e): those at which it may be
     infinite (a division by a Z-zero), which make a product with it no longer zero."""
 
-    def __init__(self):
+    def __init__(self, only=None):
+        self.only = only         # the thresholds looked at (None: every one)
         self.sym = {}            # temporary -> (Z, I)
         self.memo = {}
         self.order = {}          # threshold -> its first place (a deterministic choice among several)
@@ -62,7 +63,7 @@ class _Walk:
         if isinstance(e, (ramp, step)):
             d = e.args[0]
             self.order.setdefault(d, len(self.order))
-            return frozenset((d,)), self(d)[1]
+            return (frozenset((d,)) if self.only is None or d in self.only else _NONE), self(d)[1]
         parts = [self(a) for a in e.args]
         inf = frozenset().union(*(i for _, i in parts))
         if e.is_Mul or isinstance(e, IMul):
@@ -90,18 +91,30 @@ def with_threshold_guards(program, guards=()):
 
     Why the terms named: a joint's torque is one sum (its damping, its actuator, both limit sides)
     and each slope result another, so a side's term is no temporary a guard could skip; named,
-    it is, and the sum reads it from outside the block."""
-    walk = _Walk()
+    it is, and the sum reads it from outside the block.  Only the guarded thresholds' terms are
+    named (a second plan with those alone): a sum whose threshold gets no guard keeps its order,
+    and a program with none is returned as it came (the same C, the same bits)."""
+    first, chosen = _plan(program, guards, None)
+    if not chosen:
+        return program, list(guards)
+    program, chosen = _plan(program, guards, frozenset(d for d, _ in chosen))
+    return program, list(guards) + [(-d, exports, ()) for d, exports in chosen]
+
+
+def _plan(program, given, only):
+    """(``program`` with the terms of ``only``'s thresholds named (every threshold's if None),
+    [(threshold, exports)] of the thresholds that get a guard)."""
+    walk = _Walk(only)
     program = _split(program, walk)
     members = {}
     for t, _ in program.assignments:
         z = walk.sym[t][0]
         if z:
             members.setdefault(min(z, key=walk.order.__getitem__), []).append(t)
-    guards = list(guards)
+    chosen = []
     if not members:
-        return program, guards
-    taken = _reach(program, _exports(guards))
+        return program, chosen
+    taken = _reach(program, _exports(given))
     owner = {t: d for d, ts in members.items() for t in ts}
     read = set()                                 # read by a result or a clearance: never absorbed
     for _, e in program.results:
@@ -130,8 +143,8 @@ def with_threshold_guards(program, guards=()):
             continue
         exports = tuple(t for t in ts if t in outside)
         if exports and sum(_ops(exprs[t]) for t in ts) >= MIN_OPS:
-            guards.append((-d, exports, ()))
-    return program, guards
+            chosen.append((d, exports))
+    return program, chosen
 
 
 def _exports(guards):

@@ -16,6 +16,7 @@ pytest.importorskip("mujoco")
 import eomc  # noqa: E402
 import eomc.compiler.contact.pairs as pairs  # noqa: E402
 import eomc.compiler.formulations.recursive as recursive  # noqa: E402
+import eomc.compiler.tree.emit as tree_emit  # noqa: E402
 from eomc.compiler.contact.pairs import bounding_radius  # noqa: E402
 from eomc.compiler.mjcf.model import MjcfModel  # noqa: E402
 
@@ -37,6 +38,12 @@ XML = """<mujoco model="pg"><worldbody>
 <body name="C" pos="0 0.25 0.3"><freejoint/><geom name="cube" type="box" size="0.06 0.05 0.04" euler="0 0 30"/></body>
 </worldbody></mujoco>"""
 PAIRS, POINTS = 9, 8 + 88     # the table with four geoms, the ball with three, rod and bead with the cube
+
+
+def _no_thresholds(program, guards=()):
+    """compiler/tree/zero_guards.py off: the straight-line build has no branch at all (a pair's
+    choice between its candidate points is a step() that guard would otherwise take)."""
+    return program, list(guards)
 
 
 def _build(tmp_path, tag):
@@ -91,6 +98,7 @@ def test_guarded_pairs_are_the_straight_line_pairs_near_far_and_pressed(tmp_path
     assert _body(tmp_path, "guarded", "rhs").count("} else {") == PAIRS + POINTS
     plain_rhs = recursive.tree_rhs_body
     monkeypatch.setattr(recursive, "tree_rhs_body", lambda ctx, prog, guards=(): plain_rhs(ctx, prog))
+    monkeypatch.setattr(tree_emit, "with_threshold_guards", _no_thresholds)   # straight: no limit or choice guards
     straight = _build(tmp_path, "straight")
     assert "} else {" not in _body(tmp_path, "straight", "rhs")
     rng = np.random.default_rng(33)
@@ -147,6 +155,7 @@ def test_the_implicit_terms_keep_the_pairs_broad_phase(tmp_path, monkeypatch):
     assert body.count("} else {") == _body(tmp_path, "guarded", "rhs", "pf").count("} else {") > PAIRS + POINTS
     plain = recursive.tree_implicit_body
     monkeypatch.setattr(recursive, "tree_implicit_body", lambda ctx, prog, guards, size: plain(ctx, prog, (), size))
+    monkeypatch.setattr(tree_emit, "with_threshold_guards", _no_thresholds)   # straight: no limit or choice guards
     straight = build("straight")
     assert "} else {" not in _body(tmp_path, "straight", "implicit", "pf")
     rng = np.random.default_rng(34)
@@ -230,6 +239,7 @@ def test_a_planar_models_pairs_keep_their_guards(tmp_path, monkeypatch):
     monkeypatch.setattr(pairs, "INLINE_NARROW", True)
     plain_rhs = recursive.tree_rhs_body
     monkeypatch.setattr(recursive, "tree_rhs_body", lambda ctx, prog, guards=(): plain_rhs(ctx, prog))
+    monkeypatch.setattr(tree_emit, "with_threshold_guards", _no_thresholds)   # straight: no limit or choice guards
     straight = _build_planar(tmp_path, "straight")
     assert "} else {" not in _body(tmp_path, "straight", "rhs", "pl")
     rng = np.random.default_rng(5)
