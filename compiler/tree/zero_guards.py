@@ -87,14 +87,15 @@ def _ops(e):
 def with_threshold_guards(program, guards=()):
     """(``program`` with each threshold's terms of a sum named, the guards: ``guards`` and one per
     threshold (module docstring) in the order they first appear).  ``guards``: those already
-    given (compiler/emit/guards.py's form), whose exports a threshold must not touch.
+    given (compiler/emit/guards.py's form), whose blocks (what their exports read) a threshold keeps
+    out of.
 
     Why the terms named: a joint's torque is one sum (its damping, its actuator, both limit sides)
     and each slope result another, so a side's term is no temporary a guard could skip; named,
     it is, and the sum reads it from outside the block.  Only the guarded thresholds' terms are
     named (a second plan with those alone): a sum whose threshold gets no guard keeps its order,
     and a program with none is returned as it came (the same C, the same bits)."""
-    first, chosen = _plan(program, guards, None)
+    _, chosen = _plan(program, guards, None)
     if not chosen:
         return program, list(guards)
     program, chosen = _plan(program, guards, frozenset(d for d, _ in chosen))
