@@ -14,8 +14,8 @@ from ..emit.printer import CPrinter
 from ..emit.bodies import IND, singular_guard, store, temps, extra_state_rows, needed_assignments, split_on
 from ..ir import Names
 from ..passes.timing import compiler_step
-from .zero_guards import with_threshold_guards
 from ..ir.opcount import count_ops
+from .zero_guards import with_threshold_guards
 
 __all__ = ["tree_rhs_body", "tree_matrix_body", "tree_jacobian_body", "tree_jacobian_ops", "stores_zeroing_runs",
            "implicit_constants"]

@@ -6,8 +6,9 @@ joint is past its bound, a smooth clip with a square root, two divisions, MJCF's
 its slopes in q and u were computed for both sides of every limited joint at every call, though
 a joint is almost always inside its range, where all of it is exactly zero.  Measured on
 gymnasium's humanoid (17 limited hinges, 34 sides): NAME_implicit 4492 ns a call, 3829 ns with
-the limits off; the ant 1799 against 1499 (session 47).  Guarded: NAME_implicit 4025 and 1569 ns,
-the rhs 2473 -> 2349 and 717 -> 671 ns.
+the limits off; the ant 1799 against 1499 (session 47).  Guarded against not, in one run
+(benchmarks/bench_limit_guards.py): NAME_implicit 4186 -> 3743 and 1779 -> 1329 ns, the rhs
+2457 -> 2342 and 717 -> 672 ns.
 
 How: an abstract walk of the final program (after CSE and DCE) finds, for each temporary, the
 thresholds d whose ``ramp(d)`` or ``step(d)`` makes it exactly ±0 whenever d <= 0: a product
