@@ -36,7 +36,7 @@ from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic, reads_solve
 from .aba import aba
 from .chain_loop import chain_loop_plan
 from .limbs import LIMB_GROUPS, core_results, limb_inputs, limb_plan
-from .crba import crba
+from .crba import crba, implicit_mass_matrix, world_screws
 from .lowered import LoweredBody
 from .recorder import Recorder
 from .rnea import rnea
@@ -350,7 +350,12 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             if set(functions) & need_ab == {"forcing"} and not (outputs or events or loops):
                 A = _structure(tree)    # forcing alone: CRBA not computed (M from the kernel)
             else:
-                H = crba(bodies, rec)
+                poses = implicit.get("poses") if implicit is not None else None
+                if poses is not None:      # the tree is placed in the world: M there where cheaper (.crba)
+                    implicit["screws"] = world_screws(bodies, rec, poses)
+                    H = implicit_mass_matrix(bodies, rec, poses, implicit["screws"])
+                else:
+                    H = crba(bodies, rec)
                 A = sm.Matrix(nu, nu, lambda i, j: H.get((i, j), 0))
             f0 = rnea(bodies, rec, [0] * nu, gravity, v, c)
             b = [-f0[k] for k in range(nu)]
@@ -641,16 +646,21 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_
         out[at["qd"] + i] = e
         for j, u in enumerate(speeds):
             out[at["N"] + i * nu + j] = sm.diff(e, u)
+    screws = implicit.get("screws")         # named by .crba.world_screws where M was made with them
     for i, body in enumerate(bodies):
         motions = ([(body.speed, body.S)] if body.S is not None else list(body.multi or ()))
         if not motions:
             continue
         o = poses.origin(i)
         for k, S in motions:
+            base = at["screw"] + 6 * k
+            if screws is not None:
+                for a in range(6):
+                    out[base + a] = screws[k][a]
+                continue
             w = poses.to_world(i, S[:3])
             vo = poses.to_world(i, S[3:])
             wxo = cross(w, o)
-            base = at["screw"] + 6 * k
             for a in range(3):
                 out[base + a] = w[a]
                 out[base + 3 + a] = vo[a] - wxo[a]

@@ -76,6 +76,13 @@ class Placement:
             self.p[j] = [self.let(pp[k] + arm[k]) for k in range(3)]
         return self.p[i]
 
+    def fork(self, let):
+        """This placement naming anything not yet placed with ``let`` (a forked Recorder's),
+        leaving this one as it is."""
+        other = Placement(self.parents, self._E, self._r, let, self.by_columns)
+        other.R, other.p, other.arms = dict(self.R), dict(self.p), dict(self.arms)
+        return other
+
     def world_to_body(self, i):
         """Body i's rotation as rows world -> body components: the transpose of
         :meth:`rotation` (the same named entries, nothing new emitted)."""

@@ -67,6 +67,13 @@ class Recorder:
             names[s] = self.let(e.xreplace(names))
         return [sm.sympify(e).xreplace(names) for e in reduced]
 
+    def fork(self):
+        """A Recorder that goes on from this one's names without changing it (a trial: what
+        would this recursion add?)."""
+        other = Recorder(self.count)
+        other.apart, other.assignments, other._seen = self.apart, list(self.assignments), dict(self._seen)
+        return other
+
     def vec(self, items):
         return [self.let(e) for e in items]
 
