@@ -3,8 +3,8 @@ summed in the world and each column's force dotted with its ancestors' world scr
 mass matrix -- against MuJoCo's mj_fullM, against the model's own NAME_mass_matrix (the loop
 kernel, an independent code path) and against the body-frame CRBA built into the same model.
 
-Why (issues 29, 31): the body-frame CRBA was 22 % of gymnasium humanoid's NAME_implicit and
-35 % of the ant's; the world form took 7 % off each call (benchmarks/results/world_crba.md)."""
+Why (issues 29, 31): the body-frame CRBA was 22 % of gymnasium humanoid's NAME_implicit call; the
+world form took 5 % off its fixed step's simulated second (benchmarks/results/world_crba.md)."""
 import warnings
 
 import mujoco
