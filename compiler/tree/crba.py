@@ -12,11 +12,13 @@ Why the world form there: a column's walk up the tree is a chain of dependent tr
 massless joint frames included; in the world a massless frame adds nothing and each entry is
 one independent 6-dot.  NAME_implicit takes whichever form has fewer operations
 (:func:`implicit_mass_matrix`).  Measured (benchmarks/results/world_crba.md, the fixed step's
-loop): gymnasium humanoid 7100 -> 4476 operations, 5 % off its simulated second; G1 1.3 %,
-hopper 2.5 %; the ant keeps the body-frame form (2275 against 2501).
+loop): gymnasium humanoid 6499 -> 4063 operations, 5 % off its simulated second; G1 1.3 %,
+hopper 2.5 %; the ant keeps the body-frame form (1965 against 2324).
 
 Armature adds a to its joint's diagonal entry (see :mod:`.aba`).
 """
+from ..ir.opcount import count_ops
+from ..ir.program import needed_assignments
 from .construct import _add, _mul
 from .spatial import _cross, _dot, _sym6_plus, _times, xt_force, xt_inertia_x
 
@@ -172,27 +174,6 @@ def crba_world(bodies, rec, poses, screws):
     return H
 
 
-def _operations(e):
-    """Arithmetic operations in ``e`` as printed (an n-term sum or product: n - 1; a call or
-    power: 1), a cheap count for choosing between two forms."""
-    if not e.args:
-        return 0
-    own = len(e.args) - 1 if (e.is_Add or e.is_Mul) else 1
-    return own + sum(_operations(a) for a in e.args)
-
-
-def _cone(defs, roots):
-    """The temporaries ``roots`` read, directly or through others (``defs``: name -> expression)."""
-    seen, stack = set(), [s for e in roots for s in getattr(e, "free_symbols", ())]
-    while stack:
-        s = stack.pop()
-        if s in seen or s not in defs:
-            continue
-        seen.add(s)
-        stack.extend(defs[s].free_symbols)
-    return seen
-
-
 def implicit_mass_matrix(bodies, rec, poses, screws):
     """NAME_implicit's M by the form whose code has fewer operations: each is made on a fork of
     the recorder (and placement), and the operations M's entries read beyond what the screws read
@@ -214,7 +195,7 @@ def form_operations(bodies, rec, poses, screws):
     for make in (lambda r, p: crba(bodies, r), lambda r, p: crba_world(bodies, r, p, screws)):
         fork = rec.fork()
         H = make(fork, poses.fork(fork.let))
-        defs = dict(fork.assignments)
-        need = _cone(defs, H.values()) - _cone(defs, [x for s in screws.values() for x in s])
-        counts.append(sum(_operations(defs[s]) for s in need))
+        screw_reads = {t for t, _ in needed_assignments(fork.assignments, [x for s in screws.values() for x in s])}
+        counts.append(sum(sum(count_ops(e).values()) for t, e in needed_assignments(fork.assignments, H.values())
+                          if t not in screw_reads))
     return tuple(counts)

@@ -26,6 +26,7 @@ import sympy as sm
 
 from ..contact.law import step
 from ..ir import Names
+from ..ir.program import needed_assignments
 from ..ir.nodes import IMul
 from ..ir.opcount import count_ops
 from .joint_laws import ramp
@@ -164,15 +165,7 @@ def _reach(program, exports):
     blocks may hold.  A threshold with a temporary there, or a clearance reading one, is left to
     them (a pair's choice between its candidate points is a step() of their distances, inside the
     pair's own block: two guards over one temporary would place it after its reader)."""
-    exprs = dict(program.assignments)
-    seen, stack = set(), list(exports)
-    while stack:
-        s = stack.pop()
-        if s in seen or s not in exprs:
-            continue
-        seen.add(s)
-        stack.extend(exprs[s].free_symbols)
-    return seen
+    return {t for t, _ in needed_assignments(program.assignments, exports)}
 
 
 def _split(program, walk):
