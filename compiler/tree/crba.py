@@ -12,8 +12,8 @@ Why the world form there: a column's walk up the tree is a chain of dependent tr
 massless joint frames included; in the world a massless frame adds nothing and each entry is
 one independent 6-dot.  NAME_implicit takes whichever form has fewer operations
 (:func:`implicit_mass_matrix`).  Measured (benchmarks/results/world_crba.md, the fixed step's
-loop): gymnasium humanoid 6499 -> 4063 operations, 5 % off its simulated second; G1 1.3 %,
-hopper 2.5 %; the ant keeps the body-frame form (1965 against 2324).
+loop): gymnasium humanoid 6499 -> 4063 operations, 5 % off its simulated second; G1 2 %,
+hopper and walker2d 1.5 %; the ant keeps the body-frame form (1965 against 2324).
 
 Armature adds a to its joint's diagonal entry (see :mod:`.aba`).
 """
