@@ -92,7 +92,7 @@ def _build(tmp_path, text, name, form=None):
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            model = eomc.compile(MjcfModel(path), name=name, functions=("rhs", "implicit", "mass_matrix"),
+            model = eomc.compile(MjcfModel(path), name=name, functions=("rhs", "jac_x", "implicit", "mass_matrix"),
                                  cache_dir=tmp_path / name, progress=False)
     finally:
         lower.implicit_mass_matrix = shipped
@@ -140,6 +140,8 @@ def test_floating_branching_tree_against_the_body_frame_crba_and_the_loop_kernel
     (the loop kernel) to 1e-13 of M's largest entry, and is symmetric."""
     _, world = _build(tmp_path, WALKER, "w_world", "world")
     _, body = _build(tmp_path, WALKER, "w_body", "body")
+    # NAME_mass_matrix from the loop kernel NAME_dyn (with jac_x in the build), not M's straight-line code
+    assert "w_world_dyn(" in next((tmp_path / "w_world").rglob("w_world.c")).read_text()
     rng = np.random.default_rng(3)
     for x in _states(world, rng):
         M = _implicit_M(world, x)
