@@ -181,7 +181,7 @@ def implicit_mass_matrix(bodies, rec, poses, screws):
     function recorded first (ABA's) are not NAME_implicit's.  The fewer one is recorded.  Why not
     always the world form: on a shallow tree whose bodies all have mass the world inertias cost
     more than the short walks they save (gymnasium's ant: 4 % slower in its fixed step); the
-    humanoid (23 speeds, ten massless joint frames) is 6 % faster (benchmarks/results/world_crba.md)."""
+    humanoid (23 speeds, ten massless joint frames) is 5 % faster (benchmarks/results/world_crba.md)."""
     body, world = form_operations(bodies, rec, poses, screws)
     if world < body:
         return crba_world(bodies, rec, poses, screws)

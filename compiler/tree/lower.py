@@ -633,7 +633,6 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_
     from .analytic import _law_slopes
     law_memo = {} if law_memo is None else law_memo
     contacts = implicit.get("contacts", []) + implicit.get("pairs", [])    # as implicit_metadata lists them
-    poses = implicit["poses"]
     at = implicit_layout(nq, nu, len(contacts), energy is not None)
     out = {} if energy is None else {at["energy"]: energy}
     for i in range(nu):
@@ -646,24 +645,9 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_
         out[at["qd"] + i] = e
         for j, u in enumerate(speeds):
             out[at["N"] + i * nu + j] = sm.diff(e, u)
-    screws = implicit.get("screws")         # named by .crba.world_screws where M was made with them
-    for i, body in enumerate(bodies):
-        motions = ([(body.speed, body.S)] if body.S is not None else list(body.multi or ()))
-        if not motions:
-            continue
-        o = poses.origin(i)
-        for k, S in motions:
-            base = at["screw"] + 6 * k
-            if screws is not None:
-                for a in range(6):
-                    out[base + a] = screws[k][a]
-                continue
-            w = poses.to_world(i, S[:3])
-            vo = poses.to_world(i, S[3:])
-            wxo = cross(w, o)
-            for a in range(3):
-                out[base + a] = w[a]
-                out[base + 3 + a] = vo[a] - wxo[a]
+    for k, screw in implicit["screws"].items():      # named with M (.crba.world_screws)
+        for a in range(6):
+            out[at["screw"] + 6 * k + a] = screw[a]
     coords = list(tree.coordinates)
     speed_of = {u: k for k, u in enumerate(tree.speeds)}
     memo = {} if renamed is None else renamed
