@@ -19,30 +19,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_fixedstep import gym_xml  # noqa: E402
+from bench_implicit_call import HARNESS, terms as implicit_terms  # noqa: E402
 from common import environment_header, write_results  # noqa: E402
-
-HARNESS = """#define _POSIX_C_SOURCE 199309L
-#include <stdio.h>
-#include <time.h>
-#include "{h}"
-static const double X[{n}][{nx}] = {{{X}}};
-static const double P[] = {{{P}}};
-static double R[{nr}];
-static double OUT[{size}];
-int main(void) {{
-    struct timespec a, b; double best = 1e9; int rep, k, i, st = 0;
-    for (rep = 0; rep < 9; rep++) {{
-        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &a);
-        for (i = 0; i < 200; i++) for (k = 0; k < {n}; k++) st |= {call};
-        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &b);
-        double t = ((b.tv_sec - a.tv_sec) * 1e9 + (b.tv_nsec - a.tv_nsec)) / (200.0 * {n});
-        if (t < best) best = t;
-    }}
-    printf("%.1f %d\\n", best, st);
-    return 0;
-}}
-"""
-
 
 def build(name, cache, guarded):
     import eomc
@@ -57,17 +35,6 @@ def build(name, cache, guarded):
     finally:
         tree_emit.with_threshold_guards = shipped
     return model, next(Path(cache).rglob(f"lg_{name}.c"))
-
-
-def implicit_terms(model, X):
-    ffi = model.ffi
-    fp = ffi.addressof(model.model_lib, f"{model.name}_implicit")
-    out = np.zeros((len(X), model.metadata["implicit"]["layout"]["size"]))
-    r = model._default_r if model.ninput else ffi.NULL
-    for k, x in enumerate(np.ascontiguousarray(X)):
-        assert fp(0.0, ffi.from_buffer("double[]", x), model._default_p, r, ffi.from_buffer("double[]", out[k]),
-                  ffi.NULL) == 0
-    return out
 
 
 def rel(a, b):
@@ -99,7 +66,7 @@ def main(argv=None):
                     h = tmp / f"h_{name}_{fn}_{tag}.c"
                     h.write_text(HARNESS.format(h=f"lg_{name}.h", n=len(X), nx=g.nx, size=size, call=call,
                                                 X=",".join("{" + fmt(x) + "}" for x in X),
-                                                P=fmt(meta["param_defaults"]), nr=max(1, meta["ninput"])))
+                                                P=fmt(meta["param_defaults"]), nr=max(1, meta["ninput"]), reps=9))
                     exes[tag] = tmp / f"h_{name}_{fn}_{tag}"
                     subprocess.run(["cc", "-O2", "-march=native", "-std=c99", "-w", "-I", str(c.parent), str(h),
                                     str(c), "-lm", "-o", str(exes[tag])], check=True)
