@@ -33,7 +33,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 
-def child(model_name, seconds, ctl, cache_dir):
+def child(model_name, seconds, ctl, cache_dir, split=None):
     """Load the model, make its call, switch perf on, loop the call for ``seconds`` of thread CPU;
     print the run's calls, the CPU per run and the model library's path."""
     import mujoco
@@ -41,7 +41,7 @@ def child(model_name, seconds, ctl, cache_dir):
     from bench_fixedstep import eomc_call, eomc_model, eomc_start, gym_xml
     m = eomc_model(model_name, cache_dir)
     base = mujoco.MjModel.from_xml_path(str(gym_xml(model_name)))
-    call, _, st = eomc_call(m, eomc_start(m, base), float(base.opt.timestep))
+    call, _, st = eomc_call(m, eomc_start(m, base), float(base.opt.timestep), split=split)
     call()
     with open(ctl, "w") as f:          # perf: start sampling
         f.write("enable\n")
@@ -112,10 +112,12 @@ def main():
     parser.add_argument("--group", action="store_true", help="sum NAME_implicit_partA_B by A")
     parser.add_argument("--top", type=int, default=40)
     parser.add_argument("--cache-dir", default=os.environ.get("EOMC_CACHE_DIR"))
+    parser.add_argument("--split", type=float, default=None,
+                        help="the fast path's residual test (default: simulate's; 0: off, one call a step)")
     parser.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
-        child(args.model, args.seconds, args.child[0], args.child[1] or None)
+        child(args.model, args.seconds, args.child[0], args.child[1] or None, args.split)
         return
     with tempfile.TemporaryDirectory() as tmp:
         ctl, data = os.path.join(tmp, "ctl"), os.path.join(tmp, "perf.data")
@@ -123,6 +125,8 @@ def main():
         cmd = ["taskset", "-c", str(args.core), "perf", "record", "-q", "-F", str(args.frequency), "-D", "-1",
                "--control", f"fifo:{ctl}", "-o", data, "--", sys.executable, __file__, "--model", args.model,
                "--seconds", str(args.seconds), "--child", ctl, args.cache_dir or ""]
+        if args.split is not None:
+            cmd += ["--split", repr(args.split)]
         load0 = open("/proc/loadavg").read().split()[0]
         run = subprocess.run(cmd, capture_output=True, text=True)
         hit = [line for line in run.stdout.splitlines() if line.startswith("RESULT ")]

@@ -2334,6 +2334,35 @@ static int fs_walk_size(int pos, int size, int grid, double ratio, double split)
     return p > grid ? p : grid;
 }
 
+#ifdef EOMC_FS_TRACE
+#include <stdio.h>
+/* One line on stderr per try of fs_fast_advance, in a library built with -DEOMC_FS_TRACE only
+ * (benchmarks/trace_fixedstep.py builds one and sorts the tries by what made them): the step's start,
+ * the try's place and size on the step's grid of MAX_SPLIT cells, its status and ratio, the located
+ * onset cell, whether it is the walk back after one or the part before it, whether a contact is in
+ * touch at either end, and whether a contact or a joint law changed regime over it (fs_switched's
+ * tests, each on its own).  Why: where a run's model calls beyond one a step go decides which of the
+ * step's rules to work on, and the tries' sizes and ratios say it where the calls' count cannot. */
+static void fs_trace_try(const fs_fast *q, double t, int pos, int size, int status, double ratio, int onset,
+                         int walk, int located)
+{
+    const double *j0 = q->T + q->L.joint, *j1 = q->T1 + q->L.joint;
+    int touching = 0, contacts = 0, joints = 0;
+    for (int c = 0; c < q->ops->imp->ncontact; c++) {
+        const double *e0 = q->T + q->L.contact + 25 * (size_t)c, *e1 = q->T1 + q->L.contact + 25 * (size_t)c;
+        touching |= e0[0] > 0.0 || e1[0] > 0.0;
+        contacts |= fs_changed(e0[0], e1[0]) || (e0[0] > 0.0 && e1[0] > 0.0 && fs_clipped(e0) != fs_clipped(e1));
+    }
+    for (int i = 0; i < 2 * q->ops->nu; i++) joints |= fs_changed(j0[i], j1[i]);
+    fprintf(stderr, "EOMC_FS_TRY %.17g %d %d %d %.6g %d %d %d %d %d %d\n", t, pos, size, status, ratio, onset, walk,
+            located, touching, contacts, joints);
+}
+#define FS_TRACE_TRY(q, t, pos, size, s, ratio, onset, walk, located) \
+    fs_trace_try(q, t, pos, size, s, ratio, onset, walk, located)
+#else
+#define FS_TRACE_TRY(q, t, pos, size, s, ratio, onset, walk, located) ((void)0)
+#endif
+
 /* fs_loop's step for the fast path: one step (2), or, with eomc_implicit.split > 0 and
  * where the step's residual ratio (fs_fast_try) is above it, 2, 4 ... MAX_SPLIT equal
  * sub-steps (as fs_advance does for the W-method).  A sub-step is split further only while
@@ -2527,6 +2556,7 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
             q->st->nlu++;
         }
         s = fs_fast_try(q, ts, hs, xs, split < INFINITY, &ratio);
+        FS_TRACE_TRY(q, t, pos, size, s, ratio, onset, walk, located);
         if (s && s != EOMC_NONFINITE && s != EOMC_SINGULAR_MASS_MATRIX) return s;
         /* a whole step that misses by a little with no contact or joint law changing regime
          * inside it: the friction of a stance switching between stick and slip, which
