@@ -283,7 +283,7 @@ def parse_args(description, default_n, default_repeat=5, argv=None, extra=None):
     return args
 
 
-def work_precision_figure(panels, path, panel_width=6.5):
+def work_precision_figure(panels, path, panel_width=6.5, xlabel="wall time [s] (median)"):
     """Write a work-precision PNG: panels is [(title, {tool: [(wall_s, error), ...]})], one per axes.
 
     Log-log, one line per tool, lower-left is better; errors are floored at 1e-16 so a
@@ -298,7 +298,7 @@ def work_precision_figure(panels, path, panel_width=6.5):
             pts = sorted(pts)
             ax.loglog([a for a, _ in pts], [max(b, 1e-16) for _, b in pts], "o-", label=name)
         ax.set_title(title)
-        ax.set_xlabel("wall time [s] (median)")
+        ax.set_xlabel(xlabel)
         ax.set_ylabel("final-state error (max norm)")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend()
