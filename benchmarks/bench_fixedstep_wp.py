@@ -74,7 +74,7 @@ def run_model(name, rounds, cache_dir, eomc_ks, mujoco_ks, nstarts, log):
         warnings.simplefilter("ignore")
         model = B.eomc_model(name, cache_dir)
     X0, S0 = R.starts(model, base, None, {})
-    X0[0], S0[0] = B.eomc_start(model, base), S0[0]   # row 0: the pose at rest (bench_fixedstep's run)
+    X0[0] = B.eomc_start(model, base)      # row 0: the pose at rest (bench_fixedstep's run)
     X0[0, model.nq:] = 0.0
     d = mujoco.MjData(base)
     mujoco.mj_resetData(base, d)

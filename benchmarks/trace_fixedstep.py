@@ -27,7 +27,6 @@ both, or neither (the residual alone: friction switching, the chart).
 """
 import argparse
 import collections
-import json
 import os
 import subprocess
 import sys
@@ -192,7 +191,7 @@ def tally(runs):
     return n, kinds, causes, walks
 
 
-def table(name, rows_asked, runs):
+def table(name, runs):
     n, kinds, causes, walks = tally(runs)
     extra = n["tries"] - n["steps"]
     out = [f"**{name}** ({len(runs)} runs: qpos0 and {len(runs) - 1} of bench_rollout_contacts' starts): "
@@ -244,7 +243,7 @@ def main():
             if run.returncode:
                 sys.exit(f"{name}: the worker failed ({run.returncode}):\n{run.stderr[-4000:]}")
             runs = parse(run.stderr)
-            text, n, kinds, causes = table(name, args.rows, runs)
+            text, n, kinds, causes = table(name, runs)
             print(text + "\n", flush=True)
             parts.append(text)
             extra = n["tries"] - n["steps"]
