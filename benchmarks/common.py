@@ -8,6 +8,7 @@ them cannot be compared with anything later.
 """
 import argparse
 import datetime
+import math
 import os
 import platform
 import statistics
@@ -292,6 +293,16 @@ def work_precision_figure(panels, path, panel_width=6.5, xlabel="wall time [s] (
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import LogFormatterSciNotation
+
+    class TwoFive(LogFormatterSciNotation):
+        """A log axis's minor ticks labelled at 2 and 5 times a power of ten only: on a narrow panel
+        matplotlib labels 2, 3, 4 and 6 as well when the axis spans under a decade, and they overlap
+        (fixedstep_wp.png, session 49)."""
+        def __call__(self, x, pos=None):
+            if x > 0 and round(x / 10.0 ** math.floor(math.log10(x)), 6) not in (1.0, 2.0, 5.0):
+                return ""
+            return super().__call__(x, pos)
     fig, axes = plt.subplots(1, len(panels), figsize=(panel_width * len(panels), 4.8), squeeze=False)
     for ax, (title, series) in zip(axes[0], panels):
         for name, pts in series.items():
@@ -301,6 +312,8 @@ def work_precision_figure(panels, path, panel_width=6.5, xlabel="wall time [s] (
         ax.set_xlabel(xlabel)
         ax.set_ylabel("final-state error (max norm)")
         ax.grid(True, which="both", alpha=0.3)
+        for axis in (ax.xaxis, ax.yaxis):
+            axis.set_minor_formatter(TwoFive(labelOnlyBase=False, minor_thresholds=(1, 0.4)))
         ax.legend()
     fig.tight_layout()
     fig.savefig(path, dpi=110)
