@@ -132,11 +132,30 @@ def _float_literal(text, where):
     return text + "f"
 
 
+# a static function's definition at the start of a line: its name (the text before it has no
+# parentheses: a return type, ``inline``, the part macros; comments are blanked first)
+_STATIC_DEFINITION = re.compile(r"^static\b[^;{}()]*?\b(?P<name>[A-Za-z_]\w*)\s*\([^;{}]*\)\s*\{", re.M)
+
+
+def _defined_functions(tokens):
+    """The static functions a source defines (``tokens``: its _TOKEN tokens).
+
+    Why: the contact routines of compiler/contact/ (eomc_narrow_<kind>_<kind> and their
+    variants, eomc_pair_law, eomc_pairs_slopes, ...) are not named NAME_*, but the file defines
+    them, so this same pass takes their double text to float, and a call of one is as known as a
+    call of NAME_rhs.  Before session 51 such a call was "unknown": every MJCF model with
+    body-body pairs (gymnasium's humanoid) failed to build for c99-f32 with a message calling it
+    a compiler bug."""
+    blank = "".join(" " * len(text) if kind == "comment" else text for kind, text in tokens)
+    return {m.group("name") for m in _STATIC_DEFINITION.finditer(blank)}
+
+
 def to_float_text(source, where, own_prefix=None):
     """C99 double source -> float source (see the module docstring)."""
     pivots = _pivot_literals()
     out = []
     tokens = [(m.lastgroup, m.group()) for m in _TOKEN.finditer(source)]
+    own = _defined_functions(tokens)
     for i, (kind, text) in enumerate(tokens):
         if kind == "number" and ("." in text or "e" in text.lower()) and not text.lower().startswith("0x"):
             text = _float_literal(pivots.get(text, text), where)
@@ -146,7 +165,8 @@ def to_float_text(source, where, own_prefix=None):
             elif _next_is_call(tokens, i):
                 if text in _MATH_F:
                     text = _MATH_F[text]
-                elif not (text in _KNOWN_CALLS or (own_prefix and text.lower().startswith(own_prefix.lower()))):
+                elif not (text in _KNOWN_CALLS or text in own
+                          or (own_prefix and text.lower().startswith(own_prefix.lower()))):
                     raise ModelError(f"{where}: the generated C calls {text}(), which the c99-f32 "
                                      f"target does not know how to take to float (compiler bug)")
         elif kind == "comment":
@@ -201,7 +221,12 @@ def _braced(line):
 
 
 def _next_is_call(tokens, i):
-    for kind, text in tokens[i + 1:]:
+    """Is token i followed (past white space) by "("?  By index, not over ``tokens[i + 1:]``: that
+    slice copied the rest of the file's tokens at every identifier, so the pass was quadratic in
+    the file -- gymnasium's humanoid (1.7 MB of C, ~10^6 tokens) took 7 min to retarget (its
+    double generation: 5 s), before session 51."""
+    for j in range(i + 1, len(tokens)):
+        kind, text = tokens[j]
         if kind == "other" and text.isspace():
             continue
         return text == "("
