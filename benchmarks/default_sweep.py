@@ -127,6 +127,17 @@ def root_z(path, csv, t_final):
     return "-" if np.isnan(z_m) else f"{z_m:.4f}/{z_e:.4f} ({1e3 * (z_e - z_m):+.1f})"
 
 
+def source_digest():
+    """The digest of eomc's compiler source now (compiler/build/reuse.compiler_digest, read afresh).
+    Why: the generation cache is keyed on it, so a checkout edited while the sweep runs (an editable
+    install) makes a file built before the edit generate again inside its simulate, whose CPU then
+    counts a build (session 51: stacker's 1-s simulate read 34.9 s, 2.0 s alone).  A row whose
+    digest changed between its build and its simulate is marked, not silently wrong."""
+    from eomc.compiler.build import reuse
+    reuse._DIGEST.clear()
+    return reuse.compiler_digest()
+
+
 def short(text, root_dirs, n=110):
     for d in root_dirs:
         text = text.replace(str(d) + "/", "")
@@ -147,12 +158,13 @@ def main():
     span = f"{args.t_final:g} s"
     files = [f for f in model_files(args.dm_control) if not args.k or any(k in f[1] for k in args.k)]
     started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
-    rows, loads = [], []
+    rows, loads, moved = [], [], []
     counts = {}
     for i, (group, label, path) in enumerate(files, 1):
         loads.append(os.getloadavg()[0])
         work = Path(tempfile.mkdtemp(prefix="eomc_sweep_"))
         env = dict(os.environ, EOMC_CACHE_DIR=str(work / "cache"))
+        digest = source_digest()
         code, cpu, wall, rss, err = run(["build", str(path), "-o", str(work / "out")], env, work, args.timeout)
         b_out, b_line = outcome(code, err)
         c_kb = sum(p.stat().st_size for p in (work / "out").glob("*.c")) / 1024 if code == 0 else None
@@ -162,7 +174,10 @@ def main():
             s_code, s_cpu, _, _, s_err = run(["simulate", str(path), "--t-final", f"{args.t_final:g}", "-o",
                                               "out.csv"], env, work, args.timeout)
             s_out, s_line = outcome(s_code, s_err)
-            row += [s_out, f"{s_cpu:.1f}"] + ([root_z(path, work / "out.csv", args.t_final)] if args.root_z else []) \
+            changed = source_digest() != digest
+            if changed:
+                moved.append(label)
+            row += [s_out, f"{s_cpu:.1f}" + (" (source changed)" if changed else "")] + ([root_z(path, work / "out.csv", args.t_final)] if args.root_z else []) \
                 + [short(s_line or b_line, [path.parent, work])]
         else:
             s_out = "-"
@@ -189,7 +204,10 @@ def main():
         f"{sorted(loads)[len(loads) // 2]:.1f}, max {max(loads):.1f} (2 shared cores: CPU, not wall, is the figure)",
         "- each file in a fresh cache; simulate reuses its build; a step's outcome: ok / ok with warnings "
         "(counted, the first quoted) / refused (exit != 0 with a message) / TRACEBACK / TIMEOUT "
-        f"({args.timeout:.0f} s)", "",
+        f"({args.timeout:.0f} s)",
+        *([f"- **the compiler's source changed during the run** (rows marked \"source changed\": {', '.join(moved)}): "
+           "their simulate CPU may count a new generation; run them again on a checkout nothing edits"]
+          if moved else []), "",
         "## Summary", "", *summary, "",
         "## Per file", "", format_table(header, rows), ""])
     print(text)
