@@ -125,18 +125,23 @@ class Float32Model:
         matrix whose condition number times float's epsilon passes 1% (the relative error the
         speeds' derivatives may then carry; benchmarks/results/embedded.md measures it).
         ``x0``: the default state (the model file's initial_state), else zeros."""
-        out = []
+        out, beyond = [], False
         finfo = np.finfo(np.float32)
         x0 = np.zeros(self.nx) if x0 is None else np.asarray(x0, dtype=np.float64)
         for kind, names, values in (("state", self.state_names, x0),
                                     ("parameter", self.param_names, self.metadata["param_defaults"])):
             for n, v in zip(names, values):
                 if abs(v) > finfo.max:
+                    beyond = True
                     out.append(f"{kind} {n} = {v:g} overflows float (largest {float(finfo.max):.4g}): it would be inf")
+                elif 0 < abs(v) < finfo.smallest_subnormal:
+                    out.append(f"{kind} {n} = {v:g} is below float's smallest number "
+                               f"({float(finfo.smallest_subnormal):.3g}): it is 0 in float"
+                               + (" (its default is written as 0)" if kind == "parameter" else ""))
                 elif 0 < abs(v) < finfo.tiny:
                     out.append(f"{kind} {n} = {v:g} is below float's smallest normal number "
                                f"({float(finfo.tiny):.3g}): it loses its digits")
-        if out:
+        if beyond:          # an inf in the inputs: the checks below would only repeat it
             return out
         try:
             if "rhs" in self.functions:

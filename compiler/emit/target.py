@@ -286,6 +286,19 @@ def _f32_header(header, name, meta):
     return to_float_text(header, f"{name}.h", own_prefix=f"{name}_")
 
 
+def _default_literal(value, where):
+    """A parameter default as a float literal; one below float's smallest number is its signed
+    zero.  Why not an error, as a constant of the code is: a default is data the caller may
+    replace (p), and a value that small is 0 to any float arithmetic -- iCub's URDF has a joint
+    offset of -2.7e-51 m (rounding in its exporter), and the whole robot was refused for c99-f32,
+    with advice (rescale the units) that cannot help.  The build says it (Float32Model.float_concerns:
+    the parameter, its value, "it is 0 in float")."""
+    value = float(value)
+    if value != 0.0 and abs(value) < FLT_TRUE_MIN:
+        return "-0.0f" if value < 0.0 else "0.0f"
+    return _float_literal(repr(value), where)
+
+
 def embedded_tail(name, meta):
     """Parameter defaults (exported const) and NAME_step_rk4, in float C99.
 
@@ -295,7 +308,7 @@ def embedded_tail(name, meta):
     upper = name.upper()
     parts = []
     if meta["nparam"]:
-        vals = ", ".join(_float_literal(repr(float(v)), f"{name}: parameter {pname}'s default")
+        vals = ", ".join(_default_literal(v, f"{name}: parameter {pname}'s default")
                          for pname, v in zip(meta["param_names"], meta["param_defaults"]))
         parts.append(f"const float {name}_param_defaults[{upper}_NPARAM] = {{{vals}}};\n")
     nx = f"{upper}_NX"

@@ -218,6 +218,20 @@ def test_state_or_parameter_beyond_float_is_named(tmp_path):
         eomc.compile(path, "bigp", target="c99-f32", cache_dir=tmp_path / "cache", progress=False)
 
 
+def test_parameter_default_below_float_is_its_zero_and_said(tmp_path):
+    # a default float cannot hold even as a subnormal (iCub's URDF: a joint offset of -2.7e-51 m)
+    # is written as 0 with a warning naming it; before session 51 the whole build was refused
+    path = _pendulum_file(tmp_path, parameters="parameters = {m1: 1.0, m2: 1.0, l1: 1.0, l2: 1.0, g: -1e-50}")
+    with pytest.warns(eomc.runtime.errors.EomcWarning) as record:
+        f32 = eomc.compile(path, "tiny", target="c99-f32", cache_dir=tmp_path / "cache", progress=False)
+    text = "\n".join(str(w.message) for w in record)
+    assert "tiny (c99-f32): parameter g = -1e-50 is below float's smallest number (1.4e-45): it is 0 in float " \
+           "(its default is written as 0)" in text, text
+    source = (f32.directory / "tiny.c").read_text()
+    assert re.search(r"const float tiny_param_defaults\[TINY_NPARAM\] = \{1\.0f, 1\.0f, 1\.0f, 1\.0f, -0\.0f\};", source)
+    assert np.array_equal(f32.rhs(0.0, [1.0, 0.5, 0.0, 0.0])[2:], np.zeros(2, dtype=np.float32))   # no gravity
+
+
 @pytest.mark.parametrize("functions", [["rhs", "rhs_batch"], ["rhs", "jac_x", "jac_x_batch"],
                                        ["rhs", "outputs", "outputs_batch"],
                                        ["rhs", "rhs_batch", "jac_x", "jac_x_batch"]])
