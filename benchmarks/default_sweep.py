@@ -22,6 +22,7 @@ that); this table says whether the first command works and what it costs.
 
     python benchmarks/default_sweep.py                 # everything (an hour or more of CPU)
     python benchmarks/default_sweep.py -k go2 -k hopper
+    python benchmarks/default_sweep.py --target c99-f32   # the float C for firmware: built, not simulated
 """
 import argparse
 import os
@@ -154,23 +155,30 @@ def main():
     parser.add_argument("--root-z", action="store_true",
                         help="MJCF files: the root body's height at --t-final next to MuJoCo's passive mj_step")
     parser.add_argument("--write-as", default="default_sweep", help="results file name (default default_sweep)")
+    parser.add_argument("--target", choices=("c99-f64", "c99-f32"), default=None,
+                        help="build with --target (c99-f32: the float C for firmware, built only -- a float "
+                             "model does not simulate)")
     args = parser.parse_args()
     span = f"{args.t_final:g} s"
     files = [f for f in model_files(args.dm_control) if not args.k or any(k in f[1] for k in args.k)]
     started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     rows, loads, moved = [], [], []
+    target = ["--target", args.target] if args.target else []
+    float_only = args.target == "c99-f32"
+    flags = f" {' '.join(target)}" if target else ""
     counts = {}
     for i, (group, label, path) in enumerate(files, 1):
         loads.append(os.getloadavg()[0])
         work = Path(tempfile.mkdtemp(prefix="eomc_sweep_"))
         env = dict(os.environ, EOMC_CACHE_DIR=str(work / "cache"))
         digest = source_digest()
-        code, cpu, wall, rss, err = run(["build", str(path), "-o", str(work / "out")], env, work, args.timeout)
+        code, cpu, wall, rss, err = run(["build", str(path), "-o", str(work / "out")] + target, env, work,
+                                        args.timeout)
         b_out, b_line = outcome(code, err)
         c_kb = sum(p.stat().st_size for p in (work / "out").glob("*.c")) / 1024 if code == 0 else None
         row = [group, label, b_out, f"{cpu:.1f}", f"{wall:.1f}", f"{rss:.0f}" if rss else "-",
                f"{c_kb:.0f}" if c_kb else "-"]
-        if code == 0:
+        if code == 0 and not float_only:
             s_code, s_cpu, _, _, s_err = run(["simulate", str(path), "--t-final", f"{args.t_final:g}", "-o",
                                               "out.csv"], env, work, args.timeout)
             s_out, s_line = outcome(s_code, s_err)
@@ -195,11 +203,12 @@ def main():
         built = sum(b.startswith("ok") for b, _ in outs)
         ran = sum(s.startswith("ok") for _, s in outs)
         tb = sum("TRACEBACK" in (b + s) or "TIMEOUT" in (b + s) for b, s in outs)
-        summary.append(f"- {group}: {len(outs)} files; built with no flags {built}; simulated {span} with no flags "
-                       f"{ran}; tracebacks or timeouts {tb}")
+        summary.append(f"- {group}: {len(outs)} files; built with {flags.strip() or 'no flags'} {built}; "
+                       + ("" if float_only else f"simulated {span} with no flags {ran}; ")
+                       + f"tracebacks or timeouts {tb}")
     text = "\n".join([
-        environment_header("Every real model file, no flags: `eomc build FILE` and "
-                           f"`eomc simulate FILE --t-final {args.t_final:g}`", args=True),
+        environment_header(f"Every real model file, {'with ' + flags.strip() if flags else 'no flags'}: `eomc build FILE{flags}`"
+                           + ("" if float_only else f" and `eomc simulate FILE --t-final {args.t_final:g}`"), args=True),
         f"- started {started}; 1-min load while it ran: min {min(loads):.1f}, median "
         f"{sorted(loads)[len(loads) // 2]:.1f}, max {max(loads):.1f} (2 shared cores: CPU, not wall, is the figure)",
         "- each file in a fresh cache; simulate reuses its build; a step's outcome: ok / ok with warnings "
