@@ -211,7 +211,7 @@ def main():
                            + ("" if float_only else f" and `eomc simulate FILE --t-final {args.t_final:g}`"), args=True),
         f"- started {started}; 1-min load while it ran: min {min(loads):.1f}, median "
         f"{sorted(loads)[len(loads) // 2]:.1f}, max {max(loads):.1f} (2 shared cores: CPU, not wall, is the figure)",
-        "- each file in a fresh cache; simulate reuses its build; a step's outcome: ok / ok with warnings "
+        f"- each file in a fresh cache{'' if float_only else '; simulate reuses its build'}; a step's outcome: ok / ok with warnings "
         "(counted, the first quoted) / refused (exit != 0 with a message) / TRACEBACK / TIMEOUT "
         f"({args.timeout:.0f} s)",
         *([f"- **the compiler's source changed during the run** (rows marked \"source changed\": {', '.join(moved)}): "
