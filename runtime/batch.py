@@ -163,15 +163,16 @@ def _input_cases(r, ninput):
     return None
 
 
-def prepare_cases(model, x0, t_span, p=None, consistent=False, first=0, total=None,
+def prepare_cases(model, x0, t_span, p=None, consistent=None, first=0, total=None,
                   keep_rows=True, **kw):
     """(preps, kw): every case checked and prepared before any runs.
 
     A bad value raises CaseError naming the case by its index ``first + i`` among
     ``total`` cases (a sweep's chunk knows where it starts).  The cases share one
-    array of output times.  consistent=True completes each case's start on the
-    model's constraints (model.consistent_state); otherwise a start off the
-    constraints gives one ConstraintWarning for the whole batch.
+    array of output times.  consistent: as simulate's, per case -- None (the default)
+    completes a start off the model's constraints, True completes every start
+    (model.consistent_state), False runs them as given; one ConstraintWarning for the
+    whole batch says how many were off.
     """
     check_keywords(kw, prepare, skip=4)
     xs = _cases(x0, model.nx, "x0")
@@ -340,15 +341,16 @@ def _rollout_cases(model, preps, workers, out, extra, one, bar):
 
 
 def simulate_many(model, x0, t_span, p=None, threads=None, progress=True,
-                  raise_on_failure=True, consistent=False, **kw):
+                  raise_on_failure=True, consistent=None, **kw):
     """Integrate every case; x0 (nx,) or (n, nx) (or None: the model's initial_state),
     p None, (nparam,) or (n, nparam).
 
     r (constant inputs) may also be per case: an (n, ninput) array or a list of dicts.
 
     All cases share t_span and the output times (t_eval / n_points / dt); other
-    keywords are simulate()'s (events=, K=, ...), and consistent=True completes
-    each case's start on the constraints as simulate() does.  threads=None uses
+    keywords are simulate()'s (events=, K=, ...); consistent is simulate's too, per case
+    (None: a start off the constraints is completed on them, as simulate() completes
+    it -- so case i is simulate() of that start; True: every start; False: as given).  threads=None uses
     every CPU.  Returns a BatchResult; a failed case raises SimulationError naming
     the case unless raise_on_failure=False (then its status is nonzero and its
     tail is NaN).  A batch whose arrays would not fit in memory is refused first.

@@ -24,6 +24,7 @@ from .errors import SimulationError
 from .integrators_api import FIXED_STEP, METHOD_IDS, STATUS_NAMES
 from .law_parameters import check_law_parameters
 from .rollout_result import RolloutResult, _rollout_ffi
+from .rollout_starts import starts_on_constraints
 from .native import integrator_library
 from .events import DEFAULT_MAX_EVENTS
 from .feedback import gain_schedule
@@ -130,7 +131,7 @@ def _controls(model, r, n):
 def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=None, r=None, threads=None,
             record="final", raise_on_failure=True, lanes=False, split=IMPLICITFAST_SPLIT,
             rtol=1e-6, atol=1e-9, max_steps=100000, K=None, x_ref=None, events=None,
-            max_events=DEFAULT_MAX_EVENTS):
+            max_events=DEFAULT_MAX_EVENTS, consistent=None):
     """Integrate every row of ``x0s`` ((n, nx)) from t = 0 with a fixed step ``dt``, or
     with an adaptive method to ``rtol``/``atol``.
 
@@ -176,6 +177,11 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     events: None -- the model's compiled events when one of them is terminal (a row ends there,
     as simulate ends it: result.event_stop, result.t_events), else none; False: none; else
     what simulate's events= takes.  max_events: records kept per row.
+
+    consistent: a model with constraints starts each row as simulate starts x0 (its consistent=):
+    None (the default) completes a row off the constraints on them, keeping its independent
+    coordinates and speeds (one ConstraintWarning names the rows), True completes every row, False
+    runs them as given (with the warning) -- so row i equals simulate of that start, as below.
 
     r: the inputs, None (zeros), (ninput,) for every row, (n, ninput) one constant row per
     trajectory, or a control sequence (t_grid, values) with values (k, ninput) for every row or
@@ -264,6 +270,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     n = X0.shape[0]
     P, p_stride = _params(model, p, n)
     controls = _controls(model, r, n)
+    X0 = starts_on_constraints(model, X0, P, p_stride, controls, atol, consistent)
     gains = _gains(model, K, x_ref, n) if (K is not None or x_ref is not None) else None
     implicit_lanes = lanes and method == "implicitfast"
     if implicit_lanes:

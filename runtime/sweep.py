@@ -194,7 +194,7 @@ def run_chunk(model, task):
     exactly what simulate() returns, one case per thread at a time.
     """
     kw = dict(task["simulate"])
-    consistent = kw.pop("consistent", False)
+    consistent = kw.pop("consistent", None)
     if task["r"] is not None:
         kw["r"] = task["r"]
     reduce = task["reduce"]
@@ -345,7 +345,7 @@ def _dispatch(executor, kind, model, tasks):
 
 
 def sweep(model, cases, t_span, *, map=None, chunk_size=None, reduce=None, threads=None,
-          progress=True, raise_on_failure=True, consistent=False, **simulate_kw):
+          progress=True, raise_on_failure=True, consistent=None, **simulate_kw):
     """Simulate every case of ``cases`` (see :func:`case_arrays`) over ``t_span``, chunk by chunk.
 
     map: where chunks run -- None (here, on threads), builtins.map, a concurrent.futures
@@ -356,7 +356,8 @@ def sweep(model, cases, t_span, *, map=None, chunk_size=None, reduce=None, threa
     (each case's final state, time and outputs -- where the run really ended, a terminal
     event's state included -- without holding any trajectory) or a picklable callable
     f(SimulationResult) -> value, applied on the worker to exactly what simulate() returns.
-    consistent=True completes each case's start on the model's constraints.  Other
+    consistent: simulate's, per case (None: a start off the model's constraints is completed
+    on them; True: every start; False: as given).  Other
     keywords are simulate()'s (method, rtol, atol, t_eval, n_points, r, events, ...).
 
     Returns a BatchResult in case order (bit-identical to simulate_many for the same cases;
@@ -387,7 +388,7 @@ def sweep(model, cases, t_span, *, map=None, chunk_size=None, reduce=None, threa
     size = int(chunk_size) if chunk_size else _chunk_size(n, workers)
     if threads is None:
         threads = (os.cpu_count() or 1) if kind == "here" else 1
-    simulate_kw = {**simulate_kw, "consistent": consistent} if consistent else simulate_kw
+    simulate_kw = {**simulate_kw, "consistent": consistent}
     tasks = [{"start": lo, "total": n, "x0": X0[lo:lo + size], "p": None if P is None else P[lo:lo + size],
               "r": None if R is None else R[lo:lo + size], "t_span": tuple(t_span),
               "simulate": simulate_kw, "reduce": reduce, "threads": threads}

@@ -235,7 +235,7 @@ def run(args):
         res = sweep(model, columns, (args.t0, args.t_final), map=executor, chunk_size=args.chunk_size,
                     reduce="final", progress=not args.quiet, raise_on_failure=False, method=args.method,
                     rtol=args.rtol, atol=args.atol, dt=args.dt, max_steps=args.max_steps,
-                    consistent=args.consistent)
+                    consistent=True if args.consistent else None)
     except CaseError as exc:
         raise ValueError(f"{args.cases}:{lines[exc.case]}: {exc.detail}") from None
     except (EomcError, ValueError):
