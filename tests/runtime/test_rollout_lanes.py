@@ -324,6 +324,28 @@ def test_rows_at_times_an_ulp_apart_share_a_batch_only_when_the_model_ignores_t(
     assert np.array_equal(got.unsolved, want.unsolved)
 
 
+def test_a_batch_that_is_the_scalar_function_row_by_row_runs_the_scalar_rows(hopper, monkeypatch):
+    """Session 52: dm_control's humanoid_CMU's NAME_implicit_batch is its scalar NAME_implicit row by
+    row (its ground table is a statement the lanes lowering does not take: metadata
+    implicit_batch.vectorized false), and lanes=True took 5.8x the scalar rollout's CPU moving its
+    37297 outputs a call into the batch's columns and back.  Such a model now runs the scalar rows
+    (the same bits): forced here on the hopper, the batch function is never called."""
+    import eomc.runtime.rollout as ro
+    X0 = _hopper_starts(hopper, 9, seed=5)
+    kw = dict(dt=0.008, steps=40, method="implicitfast", threads=1)
+    want = rollout(hopper, X0, **kw)
+
+    def no_batch(*args, **kwargs):
+        raise AssertionError("the lanes path ran")
+    monkeypatch.setattr(ro, "_implicit_batch", no_batch)
+    monkeypatch.setitem(hopper.metadata, "implicit_batch", {**hopper.metadata["implicit_batch"], "vectorized": False})
+    got = rollout(hopper, X0, lanes=True, **kw)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    monkeypatch.setitem(hopper.metadata, "implicit_batch", {**hopper.metadata["implicit_batch"], "vectorized": True})
+    with pytest.raises(AssertionError, match="the lanes path ran"):
+        rollout(hopper, X0, lanes=True, **kw)
+
+
 def test_implicitfast_lanes_with_a_parameter_row_per_trajectory(hopper):
     """Rows with their own parameters share a batch call only with equal rows: each is its own."""
     X0 = _hopper_starts(hopper, 6, seed=1)
