@@ -138,8 +138,10 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     Give the span as ``t_final`` or as ``steps`` (t_final = steps * dt); the last step is
     shortened to end on t_final, as ``simulate`` does.  method=None (the default): with ``dt``
     (or ``steps``), "implicitfast" on a model with contacts' fast path (NAME_implicit: an MJCF
-    file or URDF robot with contacts; RK4 diverges on stiff contact at such steps), else "rk4"
-    (lanes=True too); without, "auto", simulate's default: ``rollout(model, X0,
+    file or URDF robot with contacts; RK4 diverges on stiff contact at such steps), on a model with
+    other contacts, and on one stiff at dt (an eigenvalue of jac_x at its first rows past RK4's
+    stability, |dt lambda| > 2), when it has jac_x; else "rk4" (lanes=True: "rk4" unless the fast
+    path); without, "auto", simulate's default: ``rollout(model, X0,
     t_final=2)`` runs what ``simulate(model, x0, (0, 2))`` runs.  method: "rk4" or "implicitfast"
     (needs jac_x), fixed-step with ``dt``; or "dopri5", "dop853", "radau", "bdf" (the last
     two need jac_x), adaptive: ``t_final``, ``rtol``, ``atol``, ``max_steps`` as in
@@ -222,6 +224,9 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
         # rows: "a non-finite value appeared")
         stepped = dt is not None or steps is not None or lanes
         method = "auto" if not stepped else "implicitfast" if implicit_terms(model) is not None else "rk4"
+        chosen = stepped and not lanes and method == "rk4"      # may become implicitfast (below)
+    else:
+        chosen = False
     method = named = resolve_method(method)
     auto = method == "auto"
     if auto:
@@ -254,6 +259,11 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     elif (isinstance(t_final, bool) or not isinstance(t_final, numbers.Real) or not np.isfinite(t_final)
           or t_final <= 0):
         raise ValueError(f"t_final must be a finite time > 0; got {t_final!r}")
+    X0 = _x0s(model, x0s)
+    n = X0.shape[0]
+    P, p_stride = _params(model, p, n)
+    if chosen and _rk4_diverges(model, X0, P, p_stride, float(dt)):
+        method = "implicitfast"
     from .switching import find_switches
     fast = method == "implicitfast" and implicit_terms(model) is not None
     # implicitfast's fast path needs no switching points: contacts and limits are in its matrix,
@@ -268,9 +278,6 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     if model.c_model.rhs == model.ffi.NULL:
         raise model._missing("rhs")
     nthreads = _threads(threads)
-    X0 = _x0s(model, x0s)
-    n = X0.shape[0]
-    P, p_stride = _params(model, p, n)
     controls = _controls(model, r, n)
     X0 = starts_on_constraints(model, X0, P, p_stride, controls, atol, consistent)
     gains = _gains(model, K, x_ref, n) if (K is not None or x_ref is not None) else None
@@ -310,8 +317,8 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
         scalar = dict(method="auto" if auto else method, rtol=rtol, atol=atol, max_steps=max_steps,
                       events=events, max_events=max_events, split=split,
                       **({"dt": float(dt)} if not adaptive else {}))
-        return rollout_extras(model, a, X0, P, p_stride, controls, r, gains, float(t_final), record,
-                              nthreads, raise_on_failure, scalar)
+        return _ran(method, rollout_extras(model, a, X0, P, p_stride, controls, r, gains, float(t_final),
+                                           record, nthreads, raise_on_failure, scalar))
     if lanes and not implicit_lanes:
         t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
         rows = []
@@ -322,8 +329,8 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
             _keep_rows(stop, rows and (lambda: _finish(model, method, X0, P, p_stride, dt, t_eval, record, *rows,
                                                          False)))
             raise
-        return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
-                       raise_on_failure)
+        return _ran(method, _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status,
+                                    nstep, raise_on_failure))
     ffi, lib = _rollout_ffi(model.ffi)
     t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
     n_eval = t_eval.size if record == "steps" else 0
@@ -333,12 +340,19 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     nstep = np.zeros(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)   # 0: a row not run (a stop)
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     try:       # (_run_rows arms Ctrl-C and SIGTERM: they stop every thread at its next evaluation)
-        return _run_rows(model, method, a, X0, P, p_stride, controls, dt, t_final, record, nthreads, raise_on_failure,
-                         fast, split, implicit_lanes, t_eval, n_eval, X_out, X_last, status, nstep, buf, ffi, lib, n)
+        return _ran(method, _run_rows(model, method, a, X0, P, p_stride, controls, dt, t_final, record, nthreads,
+                                      raise_on_failure, fast, split, implicit_lanes, t_eval, n_eval, X_out, X_last,
+                                      status, nstep, buf, ffi, lib, n))
     except BaseException as stop:
         _keep_rows(stop, lambda: _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status,
                                          nstep, False))
         raise
+
+
+def _ran(method, result):
+    """result with the method its rows ran (result.method): what method=None or "auto" picked."""
+    result.method = method
+    return result
 
 
 def _keep_rows(stop, make):
@@ -686,6 +700,35 @@ def _lanes_allowed(model, method):
     if why:
         raise ValueError(f"{model.name}: rollout(lanes=True) does not take " + "; ".join(why)
                          + "; use lanes=False")
+
+
+RK4_STABLE = 2.0     # |dt lambda| on the negative real axis RK4 is stable to: 2.785, less a margin
+
+
+def _rk4_diverges(model, X0, P, p_stride, dt):
+    """True when the default fixed-step method, RK4, would diverge at dt and implicitfast can run the
+    model (it has jac_x): a model with contacts (stiff, and only piecewise smooth: they may touch
+    after the start), or whose jac_x at its first rows (up to 8) has an eigenvalue with
+    |dt lambda| > RK4_STABLE.  Why: session 52's rollout sweep over the 31 MJCF files at each file's
+    timestep: RK4 failed every row ("a non-finite value appeared") on dm_control's manipulator and
+    stacker (body-body contacts without a ground plane: no fast path; manipulator's |dt lambda| = 137
+    at 1 ms) and 12 of 16 on fish (its fluid forces: 2.6-5.9 at 4 ms); implicitfast ran all of them.
+    The models RK4 ran, 0.01-0.16."""
+    if model.c_model.jac_x == model.ffi.NULL:
+        return False
+    from .switching import find_switches
+    found = find_switches(model)
+    if found.contacts or found.unchecked:
+        return True
+    for i in range(min(len(X0), 8)):
+        with np.errstate(all="ignore"):
+            try:
+                J = model.jac_x(0.0, X0[i], P[0 if p_stride == 0 else i, :-1])
+            except Exception:       # noqa: BLE001 -- a start the run itself will report
+                continue
+            if np.all(np.isfinite(J)) and dt * np.max(np.abs(np.linalg.eigvals(J))) > RK4_STABLE:
+                return True
+    return False
 
 
 def _implicit_lanes_allowed(model, fast):

@@ -33,7 +33,9 @@ class RolloutResult:
     (None: ran to t_final); t_events: per row, {event name: times} as simulate's result.t_events
     (None when no events were recorded); messages: {row: why} for the rows that failed,
     simulate's words (a row judged by simulate's verdict: penetration, created energy -- on
-    implicitfast's fast path the energy verdict only: status 20).
+    implicitfast's fast path the energy verdict only: status 20).  method: the method the rows ran
+    (what method=None or "auto" picked; with "auto", a row DOP853 finds stiff goes on with Radau, as
+    in simulate).
     """
     t: np.ndarray
     x: np.ndarray
@@ -44,6 +46,7 @@ class RolloutResult:
     event_stop: np.ndarray = None
     t_events: list = None
     messages: dict = None
+    method: str = None
 
     def __post_init__(self):
         if self.unsolved is None:

@@ -374,3 +374,43 @@ def test_implicitfast_rows_get_simulates_energy_verdict(tmp_path, monkeypatch):
             warnings.catch_warnings():
         warnings.simplefilter("ignore", PhysicsWarning)
         eomc.rollout(m, x0, **{**kw, "raise_on_failure": True})
+
+
+def _spring(tmp_path, name):
+    """A mass on a spring with a damper, x'' = -(k x + c x') / m: stiff at a step as k grows."""
+    import sympy as sm
+
+    import eomc.mechanics as me
+    q, u = me.dynamicsymbols("q u")
+    k, c, mass = sm.symbols("k c m")
+    N, O, P = me.ReferenceFrame("N"), me.Point("O"), me.Point("P")
+    P.set_pos(O, q * N.x)
+    P.set_vel(N, u * N.x)
+    kane = me.KanesMethod(N, [q], [u], kd_eqs=[q.diff() - u])
+    kane.kanes_equations([me.Particle("pa", P, mass)], [(P, (-k * q - c * u) * N.x)])
+    return eomc.compile(kane, name, parameters={k: 4.0, c: 0.5, mass: 1.0}, cache_dir=tmp_path, progress=False)
+
+
+def test_a_stepped_rollout_runs_implicitfast_where_rk4_would_diverge(tmp_path):
+    """Session 52's rollout sweep over the 31 MJCF files at each file's timestep: the default with
+    dt=, RK4, failed every row on dm_control's manipulator and stacker (contacts without a ground
+    plane), 12 of 16 on fish, and on dm_control's reacher (|dt lambda| = 4.5) ended 70 rad from the
+    truth with status 0.  Now RK4 only where it is stable at dt (every eigenvalue of jac_x at the
+    first rows within |dt lambda| <= 2) and the model has no contacts; result.method says which ran."""
+    m = _spring(tmp_path, "ro_spring")
+    X0 = np.column_stack([np.linspace(-1.0, 1.0, 6), np.zeros(6)])
+    soft = eomc.rollout(m, X0, dt=0.01, steps=100, threads=1)
+    assert soft.method == "rk4"
+    np.testing.assert_array_equal(soft.x, eomc.rollout(m, X0, dt=0.01, steps=100, method="rk4", threads=1).x)
+    stiff = [1e6, 0.5, 1.0]                       # |dt lambda| = 10 at dt = 0.01
+    default = eomc.rollout(m, X0, dt=0.01, steps=100, p=stiff, threads=1, raise_on_failure=False)
+    assert default.method == "implicitfast" and default.ok.all()
+    fast = eomc.rollout(m, X0, dt=0.01, steps=100, p=stiff, method="implicitfast", threads=1)
+    np.testing.assert_array_equal(default.x, fast.x)
+    assert np.abs(default.x).max() <= 1.0          # damped, as the spring is
+    rk4 = eomc.rollout(m, X0, dt=0.01, steps=100, p=stiff, method="rk4", threads=1, raise_on_failure=False)
+    assert not (rk4.ok.all() and np.abs(rk4.x).max() < 1e3)     # what the default no longer runs
+    P = np.tile([4.0, 0.5, 1.0], (6, 1))
+    P[3, 0] = 1e6                                 # one stiff row among the first: its own parameters count
+    assert eomc.rollout(m, X0, dt=0.01, steps=3, p=P, threads=1).method == "implicitfast"
+    assert eomc.rollout(m, X0, t_final=0.1, threads=1).method in ("dop853", "bdf", "radau")   # "auto"'s pick
