@@ -459,11 +459,16 @@ def _energy_watch(model):
     """eomc_options.watch_output for a fast-path rollout: the energy output's index + 1 when
     simulate's energy verdict can judge the model (switching points and an ``energy`` output),
     else 0 (nothing kept)."""
-    from .switching import find_switches
-    names = list(model.output_names)
-    if "energy" not in names or not find_switches(model) or model.c_model.outputs == model.ffi.NULL:
-        return 0
-    return names.index("energy") + 1
+    cache = getattr(model, "__dict__", None)    # kept on the model (its names are fixed): the list of
+    got = cache.get("_energy_watch") if isinstance(cache, dict) else None    # a humanoid's names, 17 us a call
+    if got is None:
+        from .switching import find_switches
+        names = list(model.output_names)
+        got = (0 if "energy" not in names or not find_switches(model) or model.c_model.outputs == model.ffi.NULL
+               else names.index("energy") + 1)
+        if isinstance(cache, dict):
+            cache["_energy_watch"] = got
+    return got
 
 
 def _energy_fn(model, ffi):
@@ -538,7 +543,9 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     # unless the total energy rose above its running minimum beyond its tolerance (risen); the
     # allowances of rows sharing parameters in one pass (energy_allowances: the same numbers)
     judged = np.flatnonzero(rose | risen)
-    if out is None and judged.size:     # the whole outputs of the rows judged only (their depths, the verdict's)
+    if not judged.size:     # no row's energy rose: nothing to word (the common case; its allowances' numpy
+        return messages     # was a tenth of a one-row rollout's Python)
+    if out is None:     # the whole outputs of the rows judged only (their depths, the verdict's)
         out = np.full((rows.size, t.size, model.noutput), np.nan)
         out[judged] = _row_outputs(model, row_args, rows[judged], t, X[judged], p_stride, controls)
         judged = judged[np.isfinite(out[judged, 0, energy])]    # outputs not finite: not judged, as before
