@@ -617,28 +617,44 @@ def _row_energies(model, rows, t, X, P, p_stride, controls):
     NAME_energy or the inputs are a table (the whole outputs then give it).  Why: the verdict read
     the start and end of every row through the whole outputs -- gymnasium's humanoid: 2.6 ms of a
     2.9 ms rollout of 64 rows x 1 step (the RL pattern: one step a call), its contacts' and pairs'
-    outputs for one number -- while only the rows whose energy rose need them."""
-    if controls[0] > 1 or "energy" not in model.metadata.get("functions", ()) or model.model_lib is None:
+    outputs for one number -- while only the rows whose energy rose need them.  The points in one C
+    call (a cffi call per point was ~4 us a row of a 64-row one-step rollout)."""
+    from .simulate import energy_fn
+    many = getattr(getattr(model, "integrators", None), "eomc_mat_rows", None)
+    if controls[0] > 1 or many is None or model.model_lib is None:
         return None
-    fn = getattr(model.model_lib, f"{model.name}_energy")
     ffi = model.ffi
+    fp = energy_fn(model, ffi)
+    if fp == ffi.NULL:
+        return None
+    fn, buf, nx = ffi.cast("eomc_mat_fn", fp), ffi.from_buffer, model.nx
     k_r, _, R, r_stride = controls
     n, m = len(rows), t.size
-    Xc = np.ascontiguousarray(X.reshape(n * m, model.nx))
-    Pc = np.ascontiguousarray(P)
-    Rc = np.ascontiguousarray(np.zeros((1, max(model.ninput, 1))) if not k_r else
-                              np.reshape(R, (1 if r_stride == 0 else -1, model.ninput)), dtype=np.float64)
-    work, got = np.empty(max(int(model.work_size), 1)), np.empty(n * m)
-    # one buffer each, rows by pointer arithmetic: a from_buffer per point was most of the loop
-    x0, p0, r0 = (ffi.cast("double *", ffi.from_buffer("double[]", a)) for a in (Xc, Pc, Rc))
-    w, o = ffi.cast("double *", ffi.from_buffer("double[]", work)), ffi.cast("double *", ffi.from_buffer("double[]", got))
-    ok = np.zeros(n * m, dtype=bool)
-    for k, i in enumerate(rows):
-        p = p0 + (int(i) * Pc.shape[1] if p_stride else 0)
-        r = r0 + (int(i) * Rc.shape[1] if Rc.shape[0] > 1 else 0)
-        for j in range(m):
-            ok[k * m + j] = fn(float(t[j]), x0 + (k * m + j) * model.nx, p, r, o + (k * m + j), w) == 0
-    E = np.where(ok, got, np.nan).reshape(n, m)
+    tt, Xc = np.ascontiguousarray(np.tile(t, n)), np.ascontiguousarray(X.reshape(n * m, nx))
+    got, work = np.full(n * m, np.nan), np.empty(max(int(model.work_size), 1))
+    Rr = np.zeros((1, max(model.ninput, 1))) if not k_r else np.reshape(R, (1 if r_stride == 0 else -1, model.ninput))
+    t_p, x_p, o_p, w_p = buf("double[]", tt), buf("double[]", Xc), buf("double[]", got), buf("double[]", work)
+    failed = ffi.new("size_t *")
+
+    def points(lo, hi, p, r):
+        """NAME_energy at points lo .. hi - 1 with one p and r, in C (eomc_mat_rows, runtime/c/eomc_rows.c);
+        a point whose call fails is NaN and the next go on"""
+        while lo < hi:
+            status = many(fn, hi - lo, t_p + lo, x_p + lo * nx, nx, p, r, o_p + lo, 1, w_p, failed)
+            if status == 0:
+                return
+            got[lo + int(failed[0])] = np.nan
+            lo += int(failed[0]) + 1
+
+    if not p_stride and Rr.shape[0] == 1:       # every row's points in one call
+        pr, rr = np.ascontiguousarray(P[0]), np.ascontiguousarray(Rr[0], dtype=np.float64)
+        points(0, n * m, buf("double[]", pr), buf("double[]", rr))
+    else:
+        for k, i in enumerate(rows):
+            pr = np.ascontiguousarray(P[i if p_stride else 0])
+            rr = np.ascontiguousarray(Rr[i if Rr.shape[0] > 1 else 0], dtype=np.float64)
+            points(k * m, (k + 1) * m, buf("double[]", pr), buf("double[]", rr))
+    E = got.reshape(n, m)
     E[~np.isfinite(E)] = np.nan
     return E
 
