@@ -75,7 +75,7 @@ def timed(f):
     return out, time.thread_time() - t0
 
 
-def one_file(path, cache_dir, rows, t_final):
+def one_file(path, cache_dir, rows, t_final, urdf_dt=0.001):
     """The row of the table for one file, and the first warning (or failure) seen."""
     import mujoco
 
@@ -83,7 +83,7 @@ def one_file(path, cache_dir, rows, t_final):
     t0 = time.process_time()
     m = build(path, cache_dir)
     b_cpu = time.process_time() - t0
-    dt = float(mujoco.MjModel.from_xml_path(str(path)).opt.timestep)
+    dt = float(mujoco.MjModel.from_xml_path(str(path)).opt.timestep) if path.suffix == ".xml" else urdf_dt
     n = max(1, int(round(t_final / dt)))
     X0 = starts(m, rows)
     first = []
@@ -123,15 +123,19 @@ def main():
     parser.add_argument("--rows", type=int, default=16)
     parser.add_argument("--t-final", type=float, default=0.5, help="simulated seconds of the fixed-step rollouts")
     parser.add_argument("--cache-dir", help="build cache (default: a fresh temporary one)")
+    parser.add_argument("--urdf", action="store_true", help="example-robot-data's URDFs instead (their default "
+                        "build: fixed base, joint limits; dt --urdf-dt), written as rollout_sweep_urdf.md")
+    parser.add_argument("--urdf-dt", type=float, default=0.001)
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
-    files = [f for f in model_files() if f[2].suffix == ".xml" and (not args.k or any(k in f[1] for k in args.k))]
+    suffix = ".urdf" if args.urdf else ".xml"
+    files = [f for f in model_files() if f[2].suffix == suffix and (not args.k or any(k in f[1] for k in args.k))]
     cache = args.cache_dir or tempfile.mkdtemp(prefix="eomc_rollout_sweep_")
     started, loads, rows = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), [], []
     for i, (group, label, path) in enumerate(files, 1):
         loads.append(os.getloadavg()[0])
         try:
-            cells, warn, nwarn = one_file(path, cache, args.rows, args.t_final)
+            cells, warn, nwarn = one_file(path, cache, args.rows, args.t_final, args.urdf_dt)
             cells.append(f"{nwarn}: {warn[:110]}" if nwarn else "")
         except Exception as exc:  # noqa: BLE001 -- the row says what broke
             cells = ["-"] * 12 + [f"FAILED {type(exc).__name__}: {str(exc)[:110]}"]
@@ -143,18 +147,19 @@ def main():
               "auto rows = simulate", "auto statuses", "warnings: first"]
     header[6] = f"statuses ({args.rows} rows)"
     text = "\n".join([
-        environment_header("eomc.rollout on every real MJCF file: rows against simulate, threads and lanes", args=True),
+        environment_header(f"eomc.rollout on every real {'URDF' if args.urdf else 'MJCF'} file: rows against simulate, "
+                           "threads and lanes", args=True),
         f"- started {started}; 1-min load while it ran: min {min(loads):.1f}, median "
         f"{sorted(loads)[len(loads) // 2]:.1f}, max {max(loads):.1f} (2 shared cores; CPU is thread CPU)",
         f"- starts: the file's start, every speed uniform in +-0.5 (seed 0); fixed-step rollouts "
-        f"{args.t_final:g} s at the file's timestep; rows {', '.join(map(str, SIM_ROWS))} against simulate "
+        f"{args.t_final:g} s at the file's timestep (a URDF: --urdf-dt {args.urdf_dt:g}); rows {', '.join(map(str, SIM_ROWS))} against simulate "
         "(x_final, bit for bit); the adaptive default (method 'auto') 4 rows x 0.2 s; lanes: implicitfast in "
         "SIMD lanes where the model has NAME_implicit_batch (their vector sin/cos differ from libm's by 1 ulp, "
         "so a chaotic contact run's rows may part: the max |difference| is shown)",
         "", format_table(header, rows), ""])
     print(text)
     if not args.no_write:
-        write_results("rollout_sweep", text, keep_notes=True)
+        write_results("rollout_sweep_urdf" if args.urdf else "rollout_sweep", text, keep_notes=True)
 
 
 if __name__ == "__main__":

@@ -139,7 +139,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     shortened to end on t_final, as ``simulate`` does.  method=None (the default): with ``dt``
     (or ``steps``), "implicitfast" on a model with contacts' fast path (NAME_implicit: an MJCF
     file or URDF robot with contacts; RK4 diverges on stiff contact at such steps), on a model with
-    other contacts, and on one stiff at dt (an eigenvalue of jac_x at its first rows past RK4's
+    other contacts or with joint limits, and on one stiff at dt (an eigenvalue of jac_x at its first rows past RK4's
     stability, |dt lambda| > 2), when it has jac_x; else "rk4" (lanes=True: "rk4" unless the fast
     path); without, "auto", simulate's default: ``rollout(model, X0,
     t_final=2)`` runs what ``simulate(model, x0, (0, 2))`` runs.  method: "rk4" or "implicitfast"
@@ -776,18 +776,20 @@ RK4_STABLE = 2.0     # |dt lambda| on the negative real axis RK4 is stable to: 2
 
 def _rk4_diverges(model, X0, P, p_stride, dt):
     """True when the default fixed-step method, RK4, would diverge at dt and implicitfast can run the
-    model (it has jac_x): a model with contacts (stiff, and only piecewise smooth: they may touch
-    after the start), or whose jac_x at its first rows (up to 8) has an eigenvalue with
-    |dt lambda| > RK4_STABLE.  Why: session 52's rollout sweep over the 31 MJCF files at each file's
-    timestep: RK4 failed every row ("a non-finite value appeared") on dm_control's manipulator and
-    stacker (body-body contacts without a ground plane: no fast path; manipulator's |dt lambda| = 137
-    at 1 ms) and 12 of 16 on fish (its fluid forces: 2.6-5.9 at 4 ms); implicitfast ran all of them.
-    The models RK4 ran, 0.01-0.16."""
+    model (it has jac_x): a model with contacts or joint limits (stiff where they act, and only
+    piecewise smooth: they engage after the start), or whose jac_x at its first rows (up to 8) has
+    an eigenvalue with |dt lambda| > RK4_STABLE.  Why: session 52's rollout sweep over the 31 MJCF
+    files at each file's timestep: RK4 failed every row ("a non-finite value appeared") on
+    dm_control's manipulator and stacker (body-body contacts without a ground plane: no fast path;
+    manipulator's |dt lambda| = 137 at 1 ms) and 12 of 16 on fish (its fluid forces: 2.6-5.9 at
+    4 ms); implicitfast ran all of them.  The models RK4 ran, 0.01-0.16.  Over example-robot-data's
+    URDFs at 1 ms, RK4 failed 9-10 of 16 rows of both limited double pendulums (|dt lambda| = 0.14
+    at the start: their limits engage later); implicitfast none."""
     if model.c_model.jac_x == model.ffi.NULL:
         return False
     from .switching import find_switches
     found = find_switches(model)
-    if found.contacts or found.unchecked:
+    if found.contacts or found.unchecked or found.limits:
         return True
     for i in range(min(len(X0), 8)):
         with np.errstate(all="ignore"):

@@ -414,3 +414,19 @@ def test_a_stepped_rollout_runs_implicitfast_where_rk4_would_diverge(tmp_path):
     P[3, 0] = 1e6                                 # one stiff row among the first: its own parameters count
     assert eomc.rollout(m, X0, dt=0.01, steps=3, p=P, threads=1).method == "implicitfast"
     assert eomc.rollout(m, X0, t_final=0.1, threads=1).method in ("dop853", "bdf", "radau")   # "auto"'s pick
+
+
+def test_a_stepped_rollout_of_a_robot_with_joint_limits_runs_implicitfast(tmp_path):
+    """example-robot-data's double pendulum with joint limits (a file nobody here wrote): at 1 ms its
+    jac_x is soft at the start (|dt lambda| = 0.14), and RK4, the default before, failed 9-10 of 16
+    rows once the limits engaged ("a non-finite value appeared").  A model with joint limits now
+    runs implicitfast by default, every row to the end."""
+    from helpers.robots import robot_path
+    m = eomc.compile(str(robot_path("double_pendulum_description/urdf/double_pendulum.urdf")), cache_dir=tmp_path,
+                     progress=False)
+    X0 = np.zeros((16, m.nx))                 # the file's zero pose, speeds uniform in +-0.5
+    X0[:, m.nq:] = np.random.default_rng(0).uniform(-0.5, 0.5, (16, m.nu))
+    default = eomc.rollout(m, X0, dt=0.001, steps=200, threads=1, raise_on_failure=False)
+    assert default.method == "implicitfast" and default.ok.all()
+    rk4 = eomc.rollout(m, X0, dt=0.001, steps=200, method="rk4", threads=1, raise_on_failure=False)
+    assert not rk4.ok.all()                   # what the default no longer runs
