@@ -21,7 +21,8 @@ from .integrators_api import STATUS_NAMES
 from .native import integrator_library
 from .rollout_result import RolloutResult, _rollout_ffi
 from .simulate import (IMPLICITFAST_SPLIT, STIFF_STATUS, _STAT_FIELDS, _options, depth_limits, finish,
-                       implicit_for_run, implicit_terms, simulate)
+                       implicit_for_run, implicit_terms, simulate, watch_options)
+from .switching import watched_stats
 
 __all__ = ["rollout_extras"]
 
@@ -120,6 +121,10 @@ def rollout_extras(model, a, X0, P, p_stride, controls, r, gains, t1, record, nt
         keep.append(ikeep)
     try:
         opt = _options(ffi, a, implicit)
+        # simulate's C energy watch (implicitfast: the energy's range over every step, which its verdict
+        # reads): without it a row judged by its output rows alone missed a rise between them (session 52,
+        # example-robot-data's allegro hand at 1 ms: simulate status 20, the same row here 0)
+        nwatch = watch_options(model, opt, a)
         opt.interrupt_base = integrator_library(model.ffi)._arm()   # Ctrl-C stops every thread at its next evaluation
         if n:
             n_rgrid, r_tgrid, R, r_stride = controls
@@ -158,6 +163,13 @@ def rollout_extras(model, a, X0, P, p_stride, controls, r, gains, t1, record, nt
             continue
         b = dict(a)
         b["x0"], b["p"] = X0[i], P[i if p_stride else 0]
+        # the rows' output times, not the prepared grid: with record="final" X_out holds the end alone,
+        # which the prepared grid's first time (t0) labelled the start, so the verdict took the end's
+        # energy for the start's and saw no rise (session 52: no row here ever failed for created
+        # energy with record="final"; simulate failed 5 of 16 allegro-hand rows)
+        b["t_eval"] = t_eval
+        if nwatch is not None:
+            b["_watched"] = watched_stats(stats[i], nwatch)
         b["n_r"], b["r_t"], b["r_v"] = _row_inputs(controls, i, model.ninput)
         if gains is not None:
             b["K"], b["x_ref"] = gains.row_argument(i)

@@ -188,3 +188,31 @@ def test_auto_rows_equal_simulate_auto():
         one = simulate(m, X0[i], (0.0, 3.0), method="auto", p=None if P is None else P[i], rtol=1e-6, atol=1e-8,
                        t_eval=[3.0])
         np.testing.assert_array_equal(res.x[i], one.x_final)
+
+
+def test_rows_judged_with_record_final_get_simulates_energy_verdict(tmp_path):
+    """Session 52 (rollout_sweep.py --urdf): example-robot-data's Allegro hand at 1 ms runs
+    implicitfast without its fast path (joint limits, no ground contacts) through this module.  With
+    record="final" (the default) the rows' one output row, the end, was labelled with the prepared
+    grid's first time, t0, so the verdict took the end's energy for the start's and no row ever
+    failed for created energy: 0 of 16 here, where simulate fails 5.  And simulate's C energy watch
+    (the energy's range over every step) was off, so a rise between the start and the end went
+    unseen too.  Oracle: simulate of each start, statuses and messages, with either record."""
+    from helpers.robots import robot_path
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = eomc.compile(str(robot_path("allegro_hand_description/urdf/allegro_left_hand.urdf")), cache_dir=tmp_path,
+                         progress=False)
+    X0 = np.tile(np.array(m.initial_state, dtype=float), (16, 1))    # the file's start, speeds uniform in +-0.5
+    X0[:, m.nq:] = np.random.default_rng(0).uniform(-0.5, 0.5, (16, m.nu))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        one = [simulate(m, x, (0.0, 0.2), method="implicitfast", dt=0.001, raise_on_failure=False) for x in X0]
+        want = np.array([r.status for r in one])
+        assert (want == 20).sum() >= 2 and (want == 0).sum() >= 2     # rows that create energy, rows that do not
+        for record in ("final", "steps"):
+            got = rollout(m, X0, steps=200, dt=0.001, method="implicitfast", record=record, threads=2,
+                          raise_on_failure=False)
+            np.testing.assert_array_equal(got.status, want)
+            assert got.messages == {i: r.message for i, r in enumerate(one) if r.status}
+            np.testing.assert_array_equal(got.x if record == "final" else got.x[:, -1], [r.x_final for r in one])
