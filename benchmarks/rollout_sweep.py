@@ -9,13 +9,14 @@ dm_control's suite, with the starts a Monte Carlo or an RL reset makes:
 - the file's start with every speed uniform in +-0.5 (seed 0), ``--rows`` rows (default 16);
 - the rollout's default method at the file's timestep for ``--t-final`` (implicitfast on a model
   with contacts' fast path, else RK4), one thread: each row's status; three rows (0, 5, 11)
-  against ``simulate`` of the same start (x_final, bit for bit); the same rollout on two threads
+  against ``simulate`` of the same start (x_final bit for bit, and the status: the verdicts); the
+  same rollout on two threads
   (bit for bit); thread CPU of the second call (the first does the model's one-time work); with
   ``lanes=True`` where the model has NAME_implicit_batch: rows equal to the
   scalar ones, else the largest |difference| (the lanes' vector sin/cos are 1 ulp of libm's, and a
   contact run is chaotic), and the CPU of both;
 - the default adaptive rollout (``t_final`` only: method "auto") of 4 rows for 0.2 s against
-  ``simulate`` (x_final, bit for bit).
+  ``simulate`` (x_final bit for bit, and the status).
 
 Each model is built once with its default functions plus implicit_batch (a model without ground
 contacts, which has no implicitfast fast path, with its default functions).  Prints a table and
@@ -94,8 +95,9 @@ def one_file(path, cache_dir, rows, t_final, urdf_dt=0.001):
         one, cpu1 = timed(lambda: eomc.rollout(m, X0, threads=1, **kw))
         method = one.method
         two = eomc.rollout(m, X0, threads=2, **kw)
-        sim_eq = sum(np.array_equal(m.simulate(X0[i], (0, n * dt), method=method, dt=dt, t_eval=[n * dt]).x_final,
-                                    one.x[i]) for i in SIM_ROWS if i < rows)
+        sims = {i: m.simulate(X0[i], (0, n * dt), method=method, dt=dt, raise_on_failure=False)
+                for i in SIM_ROWS if i < rows}
+        sim_eq = sum(np.array_equal(r.x_final, one.x[i]) and r.status == one.status[i] for i, r in sims.items())
         if "implicit_batch" in m.functions and method == "implicitfast":
             eomc.rollout(m, X0, threads=1, lanes=True, **kw)
             lanes, cpu_l = timed(lambda: eomc.rollout(m, X0, threads=1, lanes=True, **kw))
@@ -107,7 +109,8 @@ def one_file(path, cache_dir, rows, t_final, urdf_dt=0.001):
         else:
             lanes_cell, lanes_cpu = "-", "-"
         auto = eomc.rollout(m, X0[:4], t_final=0.2, raise_on_failure=False)
-        auto_eq = sum(np.array_equal(m.simulate(X0[i], (0, 0.2)).x_final, auto.x[i]) for i in range(4))
+        autos = [m.simulate(X0[i], (0, 0.2), raise_on_failure=False) for i in range(4)]
+        auto_eq = sum(np.array_equal(r.x_final, auto.x[i]) and r.status == auto.status[i] for i, r in enumerate(autos))
     for w in seen:
         first.append(f"{w.category.__name__}: {str(w.message)}")
     k = len([i for i in SIM_ROWS if i < rows])
@@ -153,7 +156,7 @@ def main():
         f"{sorted(loads)[len(loads) // 2]:.1f}, max {max(loads):.1f} (2 shared cores; CPU is thread CPU)",
         f"- starts: the file's start, every speed uniform in +-0.5 (seed 0); fixed-step rollouts "
         f"{args.t_final:g} s at the file's timestep (a URDF: --urdf-dt {args.urdf_dt:g}); rows {', '.join(map(str, SIM_ROWS))} against simulate "
-        "(x_final, bit for bit); the adaptive default (method 'auto') 4 rows x 0.2 s; lanes: implicitfast in "
+        "(x_final bit for bit and the status); the adaptive default (method 'auto') 4 rows x 0.2 s; lanes: implicitfast in "
         "SIMD lanes where the model has NAME_implicit_batch (their vector sin/cos differ from libm's by 1 ulp, "
         "so a chaotic contact run's rows may part: the max |difference| is shown)",
         "", format_table(header, rows), ""])
