@@ -18,31 +18,16 @@ import warnings
 import numpy as np
 
 from .errors import ModelError
+from .rollout_extras import _row_inputs, _row_r
 from .simulate import _along, checked_start
-
-
-def _row_inputs(controls, i):
-    """Row i's inputs as ``simulate`` takes them (rollout._controls' arrays): None, a vector, or a
-    table (t_grid, values)."""
-    k, t_grid, R, stride = controls
-    if k == 0:
-        return None
-    row = R if stride == 0 else R[i]
-    return row if t_grid is None else (t_grid, row)
 
 
 def _off_rows(model, X0, P, p_stride, controls, atol):
     """Indices of the rows whose start is off the constraints by more than simulate's limit, in one
     C pass when every row shares p and r (else None: the caller checks row by row)."""
-    k, t_grid, R, stride = controls
-    if p_stride != 0 or stride != 0:
+    if p_stride != 0 or controls[3] != 0:
         return None
-    if k == 0:
-        n_r, r_t, r_v = 0, np.zeros(1), np.zeros(max(model.ninput, 1))
-    elif t_grid is None:
-        n_r, r_t, r_v = 1, np.zeros(1), np.ascontiguousarray(R, dtype=np.float64)
-    else:
-        n_r, r_t, r_v = k, np.ascontiguousarray(t_grid), np.ascontiguousarray(R, dtype=np.float64)
+    n_r, r_t, r_v = _row_inputs(controls, 0, model.ninput)
     n = X0.shape[0]
     g = np.abs(_along(model, dict(p=np.ascontiguousarray(P[0]), n_r=n_r, r_t=r_t, r_v=r_v), 1,
                       np.zeros(n), X0))
@@ -68,7 +53,7 @@ def starts_on_constraints(model, X0, P, p_stride, controls, atol, consistent):
             warnings.simplefilter("always")
             try:
                 x = checked_start(model, given, (0.0, 1.0), P[0 if p_stride == 0 else i, :-1],
-                                  _row_inputs(controls, i), atol, consistent)
+                                  _row_r(controls, i, model.ninput), atol, consistent)
             except ModelError as error:
                 raise ModelError(f"x0s row {i} of {n}: {error}") from None
         if caught:
