@@ -16,7 +16,7 @@ from importlib import import_module
 
 from eomc.runtime.version import __version__
 
-__all__ = ["__version__", "compile", "load", "mechanics", "rollout", "sweep", "gradient"]
+__all__ = ["__version__", "compile", "load", "mechanics", "rollout", "Rollout", "sweep", "gradient"]
 
 # name -> (module, attribute or None for the module itself)
 _LAZY = {
@@ -27,6 +27,7 @@ _LAZY = {
     "contact": ("eomc.contact", None),
     "sweep": ("eomc.runtime.sweep", "sweep"),
     "rollout": ("eomc.runtime.rollout", "rollout"),
+    "Rollout": ("eomc.runtime.rollout_session", "Rollout"),
     "gradient": ("eomc.runtime.adjoint", "gradient"),
 }
 

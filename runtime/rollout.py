@@ -28,8 +28,12 @@ from .rollout_starts import starts_on_constraints
 from .native import integrator_library
 from .events import DEFAULT_MAX_EVENTS
 from .feedback import gain_schedule
-from .simulate import (IMPLICITFAST_SPLIT, _options, _positive, auto_method, check_quaternions, depth_limits,
-                       failure_message, implicit_for_run, implicit_terms, input_grid, prepare, resolve_method)
+from .rollout_extras import _row_inputs
+from .simulate import (IMPLICITFAST_SPLIT, _along, _options, _positive, _user_level, auto_method, check_quaternions,
+                       depth_limits, energy_fn, failure_message, implicit_for_run, implicit_terms, input_grid,
+                       place_finder, prepare, resolve_method)
+from .switching import (WATCHED, PhysicsWarning, _no_sources, energy_allowance, energy_allowances, energy_tolerance,
+                        energy_verdict, find_switches, total_known, watch_springs, watched_rows)
 
 __all__ = ["rollout", "RolloutResult", "rollout_stats"]
 
@@ -217,136 +221,188 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     false: its scalar function row by row, e.g. dm_control's humanoid_CMU with its ground table)
     runs the scalar rows instead: the same bits, without the lanes' copies (5.8x faster there).
     """
-    if method is None:
-        # first hour s28: rollout(model, X0, t_final=2) refused (its default was rk4, which needs
-        # dt) where simulate(model, x0, (0, 2)) runs "auto"; a step given means RK4, or on contacts
-        # with their fast path implicitfast (RK4 at gymnasium's hopper's 8 ms diverged in 10 of 16
-        # rows: "a non-finite value appeared")
-        stepped = dt is not None or steps is not None or lanes
-        method = "auto" if not stepped else "implicitfast" if implicit_terms(model) is not None else "rk4"
-        chosen = stepped and not lanes and method == "rk4"      # may become implicitfast (below)
-    else:
-        chosen = False
-    method = named = resolve_method(method)
-    auto = method == "auto"
-    if auto:
-        method, may_switch = auto_method(model, _positive(rtol, "rtol"))
-    if record not in ("final", "steps"):
-        raise ValueError(f"record must be 'final' or 'steps'; got {record!r}")
-    adaptive = method not in FIXED_STEP
-    if adaptive:
-        if dt is not None or steps is not None:
-            raise ValueError(f"method {named!r} is adaptive: give t_final= (and rtol=, atol=), not dt= or "
-                             f"steps= (those are for {', '.join(FIXED_STEP)})")
-        if record != "final":
-            raise ValueError(f"record='steps' is the fixed-step grid; an adaptive rollout ({method!r}) "
-                             f"returns the final states (record='final'); for states at chosen times "
-                             f"use simulate_many(..., t_eval=)")
-        if lanes:
-            raise ValueError(f"rollout(lanes=True) takes method 'rk4'; got {method!r}")
-    elif dt is None:
-        # first hour s24: eomc.rollout(model, X0, t_final=1) said only "dt ... got None"
-        raise ValueError(f"method {method!r} is fixed-step: give dt= (and t_final= or steps=), or an "
-                         f"adaptive method with t_final= (method='auto', the default without dt=; 'dop853', ...)")
-    elif isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not np.isfinite(dt) or dt <= 0:
-        raise ValueError(f"dt must be a finite step > 0; got {dt!r}")
-    if (t_final is None) == (steps is None):
-        raise ValueError("give the span as exactly one of t_final= or steps=")
-    if steps is not None:
-        if isinstance(steps, bool) or not isinstance(steps, numbers.Integral) or steps < 1:
-            raise ValueError(f"steps must be a whole number >= 1; got {steps!r}")
-        t_final = float(steps) * float(dt)
-    elif (isinstance(t_final, bool) or not isinstance(t_final, numbers.Real) or not np.isfinite(t_final)
-          or t_final <= 0):
-        raise ValueError(f"t_final must be a finite time > 0; got {t_final!r}")
-    X0 = _x0s(model, x0s)
+    X0 = _plan_x0s(model, x0s, dt, t_final, steps, method, record, lanes)
     n = X0.shape[0]
     P, p_stride = _params(model, p, n)
-    if chosen and _rk4_diverges(model, X0, P, p_stride, float(dt)):
-        method = "implicitfast"
-    from .switching import find_switches
-    fast = method == "implicitfast" and implicit_terms(model) is not None
-    # implicitfast's fast path needs no switching points: contacts and limits are in its matrix,
-    # and its depth limit fails a row whose contact sinks past its radius (in C); every other
-    # method ends its steps at them as simulate does (the events machinery, per row in C)
-    switching = bool(find_switches(model)) and not fast
-    if events is None:
-        # the model's events when one of them ends a run (simulate ends it there too, and
-        # records them all); a model with recorded events only runs without them (pass
-        # events= as simulate takes it to record them)
-        events = None if _terminal_events(model) else False
-    if model.c_model.rhs == model.ffi.NULL:
-        raise model._missing("rhs")
-    nthreads = _threads(threads)
     controls = _controls(model, r, n)
-    X0 = starts_on_constraints(model, X0, P, p_stride, controls, atol, consistent)
-    gains = _gains(model, K, x_ref, n) if (K is not None or x_ref is not None) else None
-    implicit_lanes = lanes and method == "implicitfast"
-    if implicit_lanes:
-        _implicit_lanes_allowed(model, fast)
-        if not _implicit_vectorized(model):
-            lanes = implicit_lanes = False      # its batch is the scalar rows: run them as such
-    elif lanes:
-        _lanes_allowed(model, method)
-        if gains is not None or events is not False or switching:
-            raise ValueError(f"{model.name}: rollout(lanes=True) takes no feedback, events, contacts or "
-                             f"limits (they run in the scalar loop); use lanes=False")
-    row0 = dict(events=events, max_events=max_events, switching=switching,
-                K=None if gains is None else gains.row_argument(0)[0],
-                x_ref=None if gains is None else gains.row_argument(0)[1])
-    # The options and step grid simulate would use (and its checks: jac_x for implicitfast,
-    # radau and bdf; tolerances).
-    if adaptive:
-        a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1],
-                    method="auto" if auto else method, rtol=rtol, atol=atol, max_steps=max_steps,
-                    t_eval=[float(t_final)], **row0)
-    else:
-        nsteps = int(np.ceil(t_final / dt * (1 - 1e-12)))
-        a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1], method=method,
-                    dt=float(dt), max_steps=max(100000, nsteps + 10), **row0)
-    if not switching:
-        a.pop("switches", None)
-    check_quaternions(model, X0, "x0s")     # every row's (the first one's: prepare)
-    if "switches" in a or "events" in a or gains is not None or a.get("auto_switch"):
+    plan = _Plan(model, X0, P, p_stride, dt=dt, t_final=t_final, steps=steps, method=method, threads=threads,
+                 record=record, lanes=lanes, split=split, rtol=rtol, atol=atol, max_steps=max_steps, K=K,
+                 x_ref=x_ref, events=events, max_events=max_events)
+    return plan.run(X0, controls, r, consistent, raise_on_failure)
+
+
+def _plan_x0s(model, x0s, dt, t_final, steps, method, record, lanes):
+    """The rows of x0s checked (_x0s), after the span's and method's arguments (_Plan checks them
+    again, cheaply: their errors come first, as they always did)."""
+    _Plan.arguments(model, dt, t_final, steps, method, record, lanes, 1e-6)
+    return _x0s(model, x0s)
+
+
+class _Plan:
+    """What one rollout decides and checks once for all its rows: the method (method=None's choice),
+    the span, the C options simulate would pass (``prepare``), the path the rows take (the fast path
+    in C, RK4's lanes, or rollout_extras for feedback, events and switching points), and the fast
+    path's C set-up (_FastSetup: its depth limits, energy watch, options struct).
+
+    Why a plan of its own: ``eomc.Rollout`` keeps one and runs it again and again (the RL pattern,
+    a few steps a call: the checks and set-up were ~200 us of a 265 us one-step humanoid call),
+    and ``rollout`` makes one per call; both then run the same code (``run``), so a Rollout call
+    equals the rollout call with the same arguments bit for bit.  The rows' own checks (their
+    constraints, quaternions, inputs) are made by ``run`` on every call."""
+
+    @staticmethod
+    def arguments(model, dt, t_final, steps, method, record, lanes, rtol):
+        """(method, named, auto, may_switch, chosen, adaptive, t_final): the method's, record's and
+        span's arguments checked, and method=None resolved as far as it can be without the rows."""
+        if method is None:
+            # first hour s28: rollout(model, X0, t_final=2) refused (its default was rk4, which needs
+            # dt) where simulate(model, x0, (0, 2)) runs "auto"; a step given means RK4, or on contacts
+            # with their fast path implicitfast (RK4 at gymnasium's hopper's 8 ms diverged in 10 of 16
+            # rows: "a non-finite value appeared")
+            stepped = dt is not None or steps is not None or lanes
+            method = "auto" if not stepped else "implicitfast" if implicit_terms(model) is not None else "rk4"
+            chosen = stepped and not lanes and method == "rk4"      # may become implicitfast (below)
+        else:
+            chosen = False
+        method = named = resolve_method(method)
+        auto = method == "auto"
+        may_switch = False
+        if auto:
+            method, may_switch = auto_method(model, _positive(rtol, "rtol"))
+        if record not in ("final", "steps"):
+            raise ValueError(f"record must be 'final' or 'steps'; got {record!r}")
+        adaptive = method not in FIXED_STEP
+        if adaptive:
+            if dt is not None or steps is not None:
+                raise ValueError(f"method {named!r} is adaptive: give t_final= (and rtol=, atol=), not dt= or "
+                                 f"steps= (those are for {', '.join(FIXED_STEP)})")
+            if record != "final":
+                raise ValueError(f"record='steps' is the fixed-step grid; an adaptive rollout ({method!r}) "
+                                 f"returns the final states (record='final'); for states at chosen times "
+                                 f"use simulate_many(..., t_eval=)")
+            if lanes:
+                raise ValueError(f"rollout(lanes=True) takes method 'rk4'; got {method!r}")
+        elif dt is None:
+            # first hour s24: eomc.rollout(model, X0, t_final=1) said only "dt ... got None"
+            raise ValueError(f"method {method!r} is fixed-step: give dt= (and t_final= or steps=), or an "
+                             f"adaptive method with t_final= (method='auto', the default without dt=; 'dop853', ...)")
+        elif isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not np.isfinite(dt) or dt <= 0:
+            raise ValueError(f"dt must be a finite step > 0; got {dt!r}")
+        if (t_final is None) == (steps is None):
+            raise ValueError("give the span as exactly one of t_final= or steps=")
+        if steps is not None:
+            if isinstance(steps, bool) or not isinstance(steps, numbers.Integral) or steps < 1:
+                raise ValueError(f"steps must be a whole number >= 1; got {steps!r}")
+            t_final = float(steps) * float(dt)
+        elif (isinstance(t_final, bool) or not isinstance(t_final, numbers.Real) or not np.isfinite(t_final)
+              or t_final <= 0):
+            raise ValueError(f"t_final must be a finite time > 0; got {t_final!r}")
+        return method, named, auto, may_switch, chosen, adaptive, float(t_final)
+
+    def __init__(self, model, X0, P, p_stride, *, dt, t_final, steps, method, threads, record, lanes, split, rtol,
+                 atol, max_steps, K, x_ref, events, max_events):
+        method, named, auto, may_switch, chosen, adaptive, t_final = self.arguments(
+            model, dt, t_final, steps, method, record, lanes, rtol)
+        n = X0.shape[0]
+        if chosen and _rk4_diverges(model, X0, P, p_stride, float(dt)):
+            method = "implicitfast"
+        fast = method == "implicitfast" and implicit_terms(model) is not None
+        # implicitfast's fast path needs no switching points: contacts and limits are in its matrix,
+        # and its depth limit fails a row whose contact sinks past its radius (in C); every other
+        # method ends its steps at them as simulate does (the events machinery, per row in C)
+        switching = bool(find_switches(model)) and not fast
+        if events is None:
+            # the model's events when one of them ends a run (simulate ends it there too, and
+            # records them all); a model with recorded events only runs without them (pass
+            # events= as simulate takes it to record them)
+            events = None if _terminal_events(model) else False
+        if model.c_model.rhs == model.ffi.NULL:
+            raise model._missing("rhs")
+        nthreads = _threads(threads)
+        gains = _gains(model, K, x_ref, n) if (K is not None or x_ref is not None) else None
+        implicit_lanes = lanes and method == "implicitfast"
+        if implicit_lanes:
+            _implicit_lanes_allowed(model, fast)
+            if not _implicit_vectorized(model):
+                lanes = implicit_lanes = False      # its batch is the scalar rows: run them as such
+        elif lanes:
+            _lanes_allowed(model, method)
+            if gains is not None or events is not False or switching:
+                raise ValueError(f"{model.name}: rollout(lanes=True) takes no feedback, events, contacts or "
+                                 f"limits (they run in the scalar loop); use lanes=False")
+        row0 = dict(events=events, max_events=max_events, switching=switching,
+                    K=None if gains is None else gains.row_argument(0)[0],
+                    x_ref=None if gains is None else gains.row_argument(0)[1])
+        # The options and step grid simulate would use (and its checks: jac_x for implicitfast,
+        # radau and bdf; tolerances).
+        if adaptive:
+            a = prepare(model, X0[0] if n else None, (0.0, t_final), p=P[0, :-1],
+                        method="auto" if auto else method, rtol=rtol, atol=atol, max_steps=max_steps,
+                        t_eval=[t_final], **row0)
+        else:
+            nsteps = int(np.ceil(t_final / dt * (1 - 1e-12)))
+            a = prepare(model, X0[0] if n else None, (0.0, t_final), p=P[0, :-1], method=method,
+                        dt=float(dt), max_steps=max(100000, nsteps + 10), **row0)
+        if not switching:
+            a.pop("switches", None)
         # feedback, events, contacts or limits (or "auto", whose stiff rows go on with Radau):
         # eomc_rollout_ex, and simulate's verdict per row
-        if implicit_lanes:
+        extras = "switches" in a or "events" in a or gains is not None or a.get("auto_switch")
+        if extras and implicit_lanes:
             raise ValueError(f"{model.name}: rollout(lanes=True, method='implicitfast') takes no feedback, "
                              f"events or switching points (they run in the scalar loop); use lanes=False")
-        from .rollout_extras import rollout_extras
-        scalar = dict(method="auto" if auto else method, rtol=rtol, atol=atol, max_steps=max_steps,
-                      events=events, max_events=max_events, split=split,
-                      **({"dt": float(dt)} if not adaptive else {}))
-        return _ran(method, rollout_extras(model, a, X0, P, p_stride, controls, r, gains, float(t_final),
-                                           record, nthreads, raise_on_failure, scalar))
-    if lanes and not implicit_lanes:
-        t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
-        rows = []
-        try:
-            X_out, X_last, status, nstep = _rollout_lanes(model, X0, P, p_stride, controls, float(t_final),
-                                                          float(dt), record == "steps", nthreads, rows)
+        self.model, self.P, self.p_stride, self.n = model, P, p_stride, n
+        self.method, self.auto, self.adaptive, self.fast, self.extras = method, auto, adaptive, fast, extras
+        self.dt = None if adaptive else float(dt)
+        self.t_final, self.record, self.lanes, self.implicit_lanes = t_final, record, lanes, implicit_lanes
+        self.split, self.nthreads, self.gains, self.a = split, nthreads, gains, a
+        self.rtol, self.atol, self.max_steps, self.events, self.max_events = rtol, atol, max_steps, events, max_events
+        self.t_eval = a["t_eval"] if record == "steps" else np.array([t_final])
+        self._setup = None
+
+    def setup(self):
+        """The fast path's C set-up (_FastSetup), made on the first run and kept."""
+        if self._setup is None:
+            self._setup = _FastSetup(self)
+        return self._setup
+
+    def run(self, X0, controls, r, consistent, raise_on_failure):
+        """The rows X0 ((n, nx), checked by _x0s) with inputs ``controls`` (_controls; ``r`` as given, for
+        rollout_extras' rows run again) started as simulate starts them (``consistent``), integrated."""
+        model, P, p_stride, method, dt, record = self.model, self.P, self.p_stride, self.method, self.dt, self.record
+        t_final, n = self.t_final, X0.shape[0]
+        X0 = starts_on_constraints(model, X0, P, p_stride, controls, self.atol, consistent)
+        check_quaternions(model, X0, "x0s", c_array=False)     # every row's (the first one's: prepare)
+        if self.extras:
+            from .rollout_extras import rollout_extras
+            scalar = dict(method="auto" if self.auto else method, rtol=self.rtol, atol=self.atol,
+                          max_steps=self.max_steps, events=self.events, max_events=self.max_events, split=self.split,
+                          **({"dt": dt} if not self.adaptive else {}))
+            return _ran(method, rollout_extras(model, self.a, X0, P, p_stride, controls, r, self.gains, t_final,
+                                               record, self.nthreads, raise_on_failure, scalar))
+        t_eval = self.t_eval
+        if self.lanes and not self.implicit_lanes:
+            rows = []
+            try:
+                X_out, X_last, status, nstep = _rollout_lanes(model, X0, P, p_stride, controls, t_final, dt,
+                                                              record == "steps", self.nthreads, rows)
+            except BaseException as stop:
+                _keep_rows(stop, rows and (lambda: _finish(model, method, X0, P, p_stride, dt, t_eval, record,
+                                                             *rows, False)))
+                raise
+            return _ran(method, _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status,
+                                        nstep, raise_on_failure))
+        ffi = self.setup().ffi
+        X_out = np.empty((n, t_eval.size, model.nx)) if record == "steps" else None
+        X_last = np.empty((n, model.nx))
+        status = np.full(n, 9, dtype=np.intc)   # EOMC_ABORTED until a row's run says otherwise (a stop before C)
+        nstep = np.zeros(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)   # 0: a row not run (a stop)
+        try:       # (_run_rows arms Ctrl-C and SIGTERM: they stop every thread at its next evaluation)
+            return _ran(method, _run_rows(self, X0, controls, X_out, X_last, status, nstep, raise_on_failure))
         except BaseException as stop:
-            _keep_rows(stop, rows and (lambda: _finish(model, method, X0, P, p_stride, dt, t_eval, record, *rows,
-                                                         False)))
+            _keep_rows(stop, lambda: _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last,
+                                             status, nstep, False))
             raise
-        return _ran(method, _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status,
-                                    nstep, raise_on_failure))
-    ffi, lib = _rollout_ffi(model.ffi)
-    t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
-    n_eval = t_eval.size if record == "steps" else 0
-    X_out = np.empty((n, t_eval.size, model.nx)) if record == "steps" else None
-    X_last = np.empty((n, model.nx))
-    status = np.full(n, 9, dtype=np.intc)   # EOMC_ABORTED until a row's run says otherwise (a stop before the C call)
-    nstep = np.zeros(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)   # 0: a row not run (a stop)
-    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
-    try:       # (_run_rows arms Ctrl-C and SIGTERM: they stop every thread at its next evaluation)
-        return _ran(method, _run_rows(model, method, a, X0, P, p_stride, controls, dt, t_final, record, nthreads,
-                                      raise_on_failure, fast, split, implicit_lanes, t_eval, n_eval, X_out, X_last,
-                                      status, nstep, buf, ffi, lib, n))
-    except BaseException as stop:
-        _keep_rows(stop, lambda: _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status,
-                                         nstep, False))
-        raise
 
 
 def _ran(method, result):
@@ -371,43 +427,58 @@ def _keep_rows(stop, make):
         pass
 
 
-def _run_rows(model, method, a, X0, P, p_stride, controls, dt, t_final, record, nthreads, raise_on_failure, fast,
-              split, implicit_lanes, t_eval, n_eval, X_out, X_last, status, nstep, buf, ffi, lib, n):
-    """The C rollout of every row (eomc_rollout_stats, or the implicit lanes' fibers) and its verdicts."""
-    unsolved = None
-    # implicitfast's fast path: the energy's range over every step, kept in C (eomc_options.
-    # watch_output), for simulate's energy verdict on each row (_energy_verdicts)
-    watch = _energy_watch(model) if fast else 0
-    ranges = None
-    if n:
+class _FastSetup:
+    """A plan's C side, made once: eomc_rollout's FFI, the options struct simulate would pass, and on
+    implicitfast's fast path its terms with the depth limits of the rows' parameters and the energy
+    watch (the output C keeps each row's range of, and the limit springs it leaves out)."""
+
+    def __init__(self, plan):
+        model, P, p_stride = plan.model, plan.P, plan.p_stride
+        self.ffi, self.lib = ffi, lib = _rollout_ffi(model.ffi)
+        # implicitfast's fast path: the energy's range over every step, kept in C (eomc_options.
+        # watch_output), for simulate's energy verdict on each row (_energy_verdicts)
+        self.watch = watch = _energy_watch(model) if plan.fast else 0
         implicit, keep = (None, None)
-        if fast:
+        if plan.fast:
             # the depth limits of the row with the smallest radii (each limit a contact's radius)
-            implicit, keep = implicit_for_run(model, P[0, :-1], split=split)
+            implicit, keep = implicit_for_run(model, P[0, :-1], split=plan.split)
             if p_stride:
                 lim = np.min([depth_limits(model, row[:-1]) for row in P], axis=0)
                 for k, v in enumerate(lim):
                     keep[1][k] = v
+        self.opt = opt = _options(ffi, plan.a, implicit)
+        opt.watch_output = watch
+        self.nspring, keep_springs = 0, None
+        if watch:
+            opt.watch_fn = _energy_fn(model, ffi)
+            # the limit springs the energy output leaves out (the tables of the first row's widths:
+            # a row with other widths gets no total, so no rise verdict)
+            self.nspring, springs, keep_springs = watch_springs(model, model.ffi, P[0])
+            opt.nspring, opt.spring = self.nspring, springs
+        self._keep = (keep, keep_springs)       # what opt points into, alive while the plan is
+        self.P = ffi.from_buffer("double[]", P)
+        self.t_eval = ffi.from_buffer("double[]", plan.t_eval)
+
+
+def _run_rows(plan, X0, controls, X_out, X_last, status, nstep, raise_on_failure):
+    """The C rollout of every row (eomc_rollout_stats, or the implicit lanes' fibers) and its verdicts."""
+    model, method, n = plan.model, plan.method, X0.shape[0]
+    s = plan.setup()
+    ffi, lib, opt = s.ffi, s.lib, s.opt
+    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
+    unsolved = ranges = None
+    if n:
         n_rgrid, r_tgrid, R, r_stride = controls
         # implicitfast: each row's stats, whose rejected count is the (sub-)steps left unsolved
         # (what simulate warns of)
         stats = ffi.new("eomc_stats[]", n) if method == "implicitfast" else ffi.NULL
-        args = (0.0, float(t_final), n, buf(X0), buf(P), p_stride, n_rgrid,
+        args = (0.0, plan.t_final, n, buf(X0), s.P, plan.p_stride, n_rgrid,
                 buf(r_tgrid) if r_tgrid is not None else ffi.NULL, buf(R) if R is not None else ffi.NULL, r_stride,
-                n_eval, buf(t_eval), buf(X_out) if X_out is not None else ffi.NULL, buf(X_last),
-                ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), stats, nthreads)
-        opt = _options(ffi, a, implicit)
-        opt.watch_output = watch
-        nspring = 0
-        if watch:
-            from .switching import watch_springs
-            opt.watch_fn = _energy_fn(model, ffi)
-            # the limit springs the energy output leaves out (the tables of the first row's widths:
-            # a row with other widths gets no total, so no rise verdict)
-            nspring, springs, keep_springs = watch_springs(model, model.ffi, P[0])
-            opt.nspring, opt.spring = nspring, springs
+                plan.t_eval.size if plan.record == "steps" else 0, s.t_eval,
+                buf(X_out) if X_out is not None else ffi.NULL, buf(X_last),
+                ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), stats, plan.nthreads)
         opt.interrupt_base = integrator_library(model.ffi)._arm()   # Ctrl-C, SIGTERM: every thread stops
-        if implicit_lanes:      # each thread's rows in fibers, their NAME_implicit calls in lanes
+        if plan.implicit_lanes:     # each thread's rows in fibers, their NAME_implicit calls in lanes
             from .cpu import machine_lanes
             size, block = model.metadata["implicit"]["layout"]["size"], _implicit_rows_block(model)
             if block is not None:   # the pairs' slope block straight into the rows (NAME_implicit_batch_rows)
@@ -420,16 +491,15 @@ def _run_rows(model, method, a, X0, P, p_stride, controls, dt, t_final, record, 
         else:
             lib.eomc_rollout_stats(model.c_model, opt, *args)
         if method == "implicitfast":
-            from .switching import WATCHED, watched_rows
             columns = _stats_columns(ffi, stats, n, ("rejected",) + (tuple(f"watch_{k}" for k in WATCHED)
-                                                                       if watch else ()))
+                                                                       if s.watch else ()))
             unsolved = columns["rejected"].astype(int)
-            if watch:
-                ranges = watched_rows(columns, nspring)
-    messages = (_energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status, ranges)
-                if fast else {})
-    return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
-                   raise_on_failure, unsolved=unsolved if n and method == "implicitfast" else None,
+            if s.watch:
+                ranges = watched_rows(columns, s.nspring)
+    messages = (_energy_verdicts(model, plan.a, X0, plan.P, plan.p_stride, controls, plan.t_eval, X_out, X_last,
+                                 status, ranges) if plan.fast else {})
+    return _finish(model, method, X0, plan.P, plan.p_stride, plan.dt, plan.t_eval, plan.record, X_out, X_last,
+                   status, nstep, raise_on_failure, unsolved=unsolved if n and method == "implicitfast" else None,
                    messages=messages)
 
 
@@ -462,7 +532,6 @@ def _energy_watch(model):
     cache = getattr(model, "__dict__", None)    # kept on the model (its names are fixed): the list of
     got = cache.get("_energy_watch") if isinstance(cache, dict) else None    # a humanoid's names, 17 us a call
     if got is None:
-        from .switching import find_switches
         names = list(model.output_names)
         got = (0 if "energy" not in names or not find_switches(model) or model.c_model.outputs == model.ffi.NULL
                else names.index("energy") + 1)
@@ -475,7 +544,6 @@ def _energy_fn(model, ffi):
     """NAME_energy (the energy output alone, compiler/emit/generate.energy_program) as the
     eomc_rhs_fn ``ffi`` declares, for eomc_options.watch_fn; NULL for a model built without it
     (before session 16, or an energy that reads u'): the watch then calls the whole outputs."""
-    from .simulate import energy_fn
     return energy_fn(model, ffi)
 
 
@@ -493,10 +561,6 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     rows whose energy rose past energy_tolerance (below it the verdict says nothing) go through the
     verdict's Python, and only the row the warning quotes is run again to name what touched down
     where its total rose (switching.place_finder; record="steps": from its recorded states)."""
-    from .simulate import place_finder
-    from .switching import (PhysicsWarning, _no_sources, energy_allowance, energy_allowances, energy_tolerance,
-                            energy_verdict, find_switches, total_known)
-    from .rollout_extras import _row_inputs
     sw = find_switches(model)
     rows = np.flatnonzero(status == 0)
     # a model built without its outputs function (functions=("rhs", "implicit")) names its energy
@@ -585,7 +649,7 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
         seen_rows = sorted({j for j, _ in notes})
         warnings.warn(PhysicsWarning(f"{model.name}: rollout: {len(seen_rows)} of {len(X0)} row(s) warned (rows "
                                      f"{', '.join(map(str, seen_rows[:8]))}{', ...' if len(seen_rows) > 8 else ''}); "
-                                     f"row {i}: {w}"), stacklevel=3)
+                                     f"row {i}: {w}"), stacklevel=_user_level())
     return messages
 
 
@@ -593,7 +657,6 @@ def _row_outputs(model, row_args, rows, t, X, p_stride, controls):
     """(len(rows), t.size, noutput): the outputs at the rows' points X ((len(rows), t.size, nx)), in one
     C call when the rows share parameters and constant inputs, else row by row; a row whose outputs
     are not finite somewhere is NaN (no energy to judge, as simulate's _energy_gain)."""
-    from .simulate import _along
     if not p_stride and controls[0] <= 1:      # one call: the rows' points one after another
         try:
             tt = np.empty((len(rows), t.size))
@@ -619,20 +682,19 @@ def _row_energies(model, rows, t, X, P, p_stride, controls):
     2.9 ms rollout of 64 rows x 1 step (the RL pattern: one step a call), its contacts' and pairs'
     outputs for one number -- while only the rows whose energy rose need them.  The points in one C
     call (a cffi call per point was ~4 us a row of a 64-row one-step rollout)."""
-    from .simulate import energy_fn
     many = getattr(getattr(model, "integrators", None), "eomc_mat_rows", None)
     if controls[0] > 1 or many is None or model.model_lib is None:
         return None
     ffi = model.ffi
-    fp = energy_fn(model, ffi)
-    if fp == ffi.NULL:
+    fn, zeros = _energy_rows_fn(model)
+    if fn is None:
         return None
-    fn, buf, nx = ffi.cast("eomc_mat_fn", fp), ffi.from_buffer, model.nx
+    buf, nx = ffi.from_buffer, model.nx
     k_r, _, R, r_stride = controls
     n, m = len(rows), t.size
     tt, Xc = np.ascontiguousarray(np.tile(t, n)), np.ascontiguousarray(X.reshape(n * m, nx))
     got, work = np.full(n * m, np.nan), np.empty(max(int(model.work_size), 1))
-    Rr = np.zeros((1, max(model.ninput, 1))) if not k_r else np.reshape(R, (1 if r_stride == 0 else -1, model.ninput))
+    Rr = zeros if not k_r else np.reshape(R, (1 if r_stride == 0 else -1, model.ninput))
     t_p, x_p, o_p, w_p = buf("double[]", tt), buf("double[]", Xc), buf("double[]", got), buf("double[]", work)
     failed = ffi.new("size_t *")
 
@@ -657,6 +719,22 @@ def _row_energies(model, rows, t, X, P, p_stride, controls):
     E = got.reshape(n, m)
     E[~np.isfinite(E)] = np.nan
     return E
+
+
+def _energy_rows_fn(model):
+    """(NAME_energy as eomc_mat_fn, a zero input row) for _row_energies, or (None, None) for a model
+    built without NAME_energy; kept on the model (its library is fixed).  Why: looking it up and
+    casting it were ~9 us of every call of a few steps (the RL pattern, eomc.Rollout)."""
+    cache = getattr(model, "__dict__", None)    # an instance's dict (a stand-in class's is read-only)
+    got = cache.get("_energy_rows_fn") if isinstance(cache, dict) else None
+    if got is None:
+        ffi = model.ffi
+        fp = energy_fn(model, ffi)
+        zeros = np.zeros((1, max(model.ninput, 1)))
+        got = (None, None) if fp == ffi.NULL else (ffi.cast("eomc_mat_fn", fp), zeros)
+        if isinstance(cache, dict):
+            cache["_energy_rows_fn"] = got
+    return got
 
 
 def _verdict_columns(model, sw):
@@ -727,8 +805,8 @@ def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, s
             unsolved=None, messages=None):
     n = X0.shape[0]
     messages = messages or {}
-    failed = np.flatnonzero(status != 0)
-    if failed.size and raise_on_failure:
+    failed = np.flatnonzero(status) if status.any() else ()
+    if len(failed) and raise_on_failure:
         i = int(failed[0])
         if status[i] == 9:
             raise KeyboardInterrupt
@@ -742,16 +820,15 @@ def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, s
                               f"failed in all) -- "
                               + failure_message(model, method, stats, X_last[i], P[0 if p_stride == 0 else i, :-1])
                               + "; pass raise_on_failure=False to keep the other rows")
-    if unsolved is not None and np.any((unsolved > 0) & (status == 0)):
+    if unsolved is not None and unsolved.any() and np.any((unsolved > 0) & (status == 0)):
         import warnings
-        from .switching import PhysicsWarning
         rows = np.flatnonzero((unsolved > 0) & (status == 0))
         warnings.warn(PhysicsWarning(
             f"{model.name}: rollout: {rows.size} of {n} row(s) ran to the end with implicitfast (sub-)steps "
             f"left unsolved (rows {', '.join(map(str, rows[:8]))}{', ...' if rows.size > 8 else ''}; "
             f"result.unsolved counts them, result.clean marks the others): in each, one or more steps of "
             f"1/64 dt still missed implicit Euler (a hard impact, or the solution blows up); a smaller dt, "
-            f"or an adaptive method, checks those rows"), stacklevel=3)
+            f"or an adaptive method, checks those rows"), stacklevel=_user_level())
     return RolloutResult(t=np.asarray(t_eval, dtype=np.float64).copy(),
                          x=X_out if record == "steps" else X_last, status=status.astype(int),
                          steps=nstep.astype(int), state_names=tuple(model.state_names),
@@ -787,7 +864,6 @@ def _rk4_diverges(model, X0, P, p_stride, dt):
     at the start: their limits engage later); implicitfast none."""
     if model.c_model.jac_x == model.ffi.NULL:
         return False
-    from .switching import find_switches
     found = find_switches(model)
     if found.contacts or found.unchecked or found.limits:
         return True

@@ -20,7 +20,7 @@ from .events import EventsBinding
 from .integrators_api import STATUS_NAMES
 from .native import integrator_library
 from .rollout_result import RolloutResult, _rollout_ffi
-from .simulate import (IMPLICITFAST_SPLIT, STIFF_STATUS, _STAT_FIELDS, _options, depth_limits, finish,
+from .simulate import (IMPLICITFAST_SPLIT, STIFF_STATUS, _STAT_FIELDS, _options, _user_level, depth_limits, finish,
                        implicit_for_run, implicit_terms, simulate, watch_options)
 from .switching import watched_stats
 
@@ -186,7 +186,7 @@ def rollout_extras(model, a, X0, P, p_stride, controls, r, gains, t1, record, nt
         rows = sorted({j for j, _ in notes})
         warnings.warn(w.category(f"rollout: {len(rows)} of {n} row(s) warned (rows "
                                  f"{', '.join(map(str, rows[:8]))}{', ...' if len(rows) > 8 else ''}); "
-                                 f"row {i}: {w.message}"), stacklevel=3)
+                                 f"row {i}: {w.message}"), stacklevel=_user_level())
     failed = np.flatnonzero(status != 0)
     if failed.size and raise_on_failure:
         i = int(failed[0])

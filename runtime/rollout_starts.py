@@ -19,7 +19,7 @@ import numpy as np
 
 from .errors import ModelError
 from .rollout_extras import _row_inputs, _row_r
-from .simulate import _along, checked_start
+from .simulate import _along, _user_level, checked_start
 
 
 def _off_rows(model, X0, P, p_stride, controls, atol):
@@ -66,5 +66,5 @@ def starts_on_constraints(model, X0, P, p_stride, controls, atol, consistent):
         first = seen[0][1]
         which = ", ".join(str(i) for i, _ in seen[:8]) + (", ..." if len(seen) > 8 else "")
         warnings.warn(first.category(f"{len(seen)} of {n} rows of x0s (rows {which}); row {seen[0][0]}: "
-                                     f"{first.message}"), stacklevel=3)
+                                     f"{first.message}"), stacklevel=_user_level())
     return out

@@ -410,25 +410,28 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
                 auto=auto, **quat, **extras)
 
 
-def check_quaternions(model, x, what):
+def check_quaternions(model, x, what, c_array=True):
     """{} for a model without quaternions, else {"quat": the C int array of their w indices}
-    (eomc_options.quat: the integrators keep them unit), after checking that every
-    quaternion of ``x`` (a state, or rows of states) has a length to normalise: a zero
-    one is no orientation at all (its rhs would be NaN)."""
+    (eomc_options.quat: the integrators keep them unit; c_array=False: {}, the check alone), after
+    checking that every quaternion of ``x`` (a state, or rows of states) has a length to normalise:
+    a zero one is no orientation at all (its rhs would be NaN)."""
     starts = getattr(model, "quaternions", ())
     if not starts:
         return {}
     rows = np.atleast_2d(np.asarray(x, dtype=float))
     for i in starts:
         norms = np.linalg.norm(rows[:, i:i + 4], axis=1)
-        bad = np.flatnonzero(~(norms > 1e-150) | ~np.isfinite(norms))
+        ok = (norms > 1e-150) & (norms < np.inf)
+        if ok.all():
+            continue
+        bad = np.flatnonzero(~ok)
         if bad.size:
             names = ", ".join(model.state_names[i:i + 4])
             row = f" (row {bad[0]})" if rows.shape[0] > 1 else ""
             raise ValueError(f"{model.name}: {what}{row}: the quaternion ({names}) is "
                              f"{'zero' if np.isfinite(norms[bad[0]]) else 'not finite'}: it is no "
                              f"orientation (upright is {model.state_names[i]}=1, the others 0)")
-    return {"quat": model.ffi.new("int[]", [int(i) for i in starts])}
+    return {"quat": model.ffi.new("int[]", [int(i) for i in starts])} if c_array else {}
 
 
 def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):

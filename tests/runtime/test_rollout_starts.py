@@ -116,3 +116,16 @@ def test_simulate_many_and_sweep_complete_like_simulate(fourbar):
             one = fourbar.simulate(X0[i], (0, 0.05), n_points=3)
         np.testing.assert_array_equal(batch.x[i], one.x)
         np.testing.assert_array_equal(swept.x[i], one.x)
+
+
+def test_the_warning_points_at_the_callers_line(fourbar):
+    """The rows' ConstraintWarning names the user's line, from eomc.rollout and from an eomc.Rollout
+    call alike (it named runtime/rollout.py until session 53)."""
+    X0 = _starts(fourbar)
+    for run in (lambda: eomc.rollout(fourbar, X0, dt=DT, steps=STEPS, threads=1),
+                lambda: eomc.Rollout(fourbar, dt=DT, threads=1)(X0, steps=STEPS)):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            run()
+        assert [w.category for w in caught] == [ConstraintWarning]
+        assert caught[0].filename == __file__
