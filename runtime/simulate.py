@@ -580,9 +580,28 @@ def implicit_terms(model):
                               zip(("int[]", "int[]", "int[]", "double[]"), zip(*limits)))
                 st.nlimit = len(limits)
                 st.limit_state, st.limit_speed, st.limit_bound, st.limit_sign = keep[-4:]
+            keep += _fixed_lists(model, st)
             found = (st, keep, fp)
     model._implicit_struct = found
     return found[0]
+
+
+def _fixed_lists(model, st):
+    """eomc_implicit.pattern: the fast path's fixed lists (M's tree pattern, the contacts' branch
+    masks, M's and N's column lists) made once for the model by the C that would make them at every
+    run's start (eomc_fs_pattern), set on ``st``; returns what must stay alive with it.  Why: a
+    rollout of one step a call made them per row, ~4 us of the humanoid's ~19 us a row (session 53);
+    a library without eomc_fs_pattern (an older build of the integrators): none, made per run."""
+    make = getattr(model.integrators, "eomc_fs_pattern", None)
+    if make is None:
+        return ()
+    ffi = model.ffi
+    work = ffi.new("double[]", max(int(st.work_len), 1))
+    n = int(make(st, model.nq, model.nu, work, ffi.NULL))
+    lists = ffi.new("double[]", max(n, 1))
+    make(st, model.nq, model.nu, work, lists)
+    st.pattern, st.pattern_len = lists, n
+    return (lists,)
 
 
 def _const_apart(model):
@@ -652,6 +671,7 @@ def implicit_for_run(model, p, split=IMPLICITFAST_SPLIT):
     st.tree_residual = base.tree_residual
     st.nlimit, st.limit_state, st.limit_speed = base.nlimit, base.limit_state, base.limit_speed
     st.limit_bound, st.limit_sign = base.limit_bound, base.limit_sign
+    st.pattern, st.pattern_len = base.pattern, base.pattern_len
     return st, (st, lim, base)     # the caller keeps the second alive while C runs
 
 

@@ -448,6 +448,16 @@ static size_t fs_cache_size(int nu, int ncontact)
     return (size_t)ncontact * (13 + 4 * (size_t)nu);
 }
 
+/* The doubles at the tail of eomc_fs_implicit_work_size's that hold a run's fixed lists (fs_fixed_lists;
+ * eomc_implicit.pattern's length): fs_pattern's bits and two own lists, the ancestor lists, M's column
+ * lists and N's. */
+static size_t fs_fixed_len(int nq, int nu, int ncontact)
+{
+    size_t u = (size_t)nu;
+    return 2 * u + (size_t)ncontact + 2 * (u * u / 2 + u + 2) + u * u / 2 + u + 2 + u * u / 2 + u / 2 + 2
+           + (size_t)nq * u + (size_t)nq + 2;
+}
+
 #ifndef EOMC_FS_AVX2_COPY
 size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
 {
@@ -2735,6 +2745,97 @@ static int fs_loop(const eomc_fs_ops *ops, eomc_stats *st, int n, double h, long
     return EOMC_OK;
 }
 
+/* The run's fixed lists, in work from blk (the tail of eomc_fs_implicit_work_size's doubles: fs_pattern's
+ * tree and cross bits and scratch bits, the two own lists, the ancestor lists, M's column lists, N's
+ * lists): per-step fill (fs_pattern) with M's tree given and at most 64 speeds, else every pair's
+ * fill at every step.  The lanes rollout's rows too: the lanes never write A or A1 (bare), so their
+ * pattern (eomc_fs_lanes: per call, the union of the group's) is not this one's; the scalar
+ * assemblies of its rows (a split step's tries: 7469 a 64-row humanoid rollout, fs_tree_lu half of
+ * them, perf) take the per-step fill as the scalar rollout's do.  They depend on the model alone
+ * (its tree, contacts' chains, free joints, N's constants: q->T holds terms_const's), so where
+ * eomc_implicit.pattern holds them (made once per model: eomc_fs_pattern) they are copied, not made:
+ * ~4 us a row on gymnasium's humanoid (138 contacts' branch masks, the lists), what a rollout of one
+ * step a call paid per row (session 53).  mark: nu * nu bytes of scratch. */
+static void fs_fixed_lists(fs_fast *q, double *blk, unsigned char *mark)
+{
+    const eomc_implicit *imp = q->ops->imp;
+    int nq = q->ops->nq, nu = q->ops->nu;
+    size_t uu = (size_t)nu * nu;
+    int nc = imp->ncontact, dyn = imp->parent != NULL && nu <= 64;
+    int made = imp->pattern != NULL && imp->pattern_len == fs_fixed_len(nq, nu, nc);
+    double *pos = blk;
+    unsigned long long *tree = (unsigned long long *)pos, *cross = tree + nu;
+    int *lists;
+    if (made)
+        memcpy(blk, imp->pattern, imp->pattern_len * sizeof(double));
+    q->pat.bits = cross + nc;
+    pos += 2 * (size_t)nu + (size_t)nc;
+    q->own = (int *)pos; pos += uu / 2 + nu + 2;
+    q->own1 = (int *)pos; pos += uu / 2 + nu + 2;
+    lists = (int *)pos;
+    if (!made) {
+        fs_ancestors(nu, imp->parent, dyn ? NULL : imp, mark, lists, lists + nu + 1);
+        for (int k = 0; k < nu; k++) {
+            tree[k] = 0;
+            for (int x = lists[k]; dyn && x < lists[k + 1]; x++) tree[k] |= 1ULL << lists[nu + 1 + x];
+        }
+        for (int c = 0; c < nc; c++) {     /* a chain that is not on one path joins two branches */
+            unsigned long long m = 0;
+            int path = 1;
+            for (int x = imp->chain_start[c]; dyn && x < imp->chain_start[c + 1]; x++) m |= 1ULL << fs_speed(imp->chain[x]);
+            for (int x = imp->chain_start[c]; dyn && x < imp->chain_start[c + 1]; x++) {
+                int sp = fs_speed(imp->chain[x]);
+                if (m & ((1ULL << sp) - 1) & ~tree[sp]) path = 0;
+            }
+            cross[c] = path ? 0 : m;
+        }
+    }
+    q->pat.n = nu;
+    q->pat.start = lists;
+    q->pat.anc = lists + nu + 1;
+    q->pat.tree = dyn ? tree : NULL;
+    q->pat.cross = cross;
+    q->start = q->start1 = q->pat.start;
+    q->anc = q->anc1 = q->pat.anc;
+    q->cstart = lists + nu + 1 + lists[nu];
+    q->cols = q->cstart + nu + 1;
+    if (!made)
+        fs_columns(nu, q->pat.start, q->pat.anc, q->cstart, q->cols);
+    q->nstart = (int *)((double *)lists + (uu / 2 + nu + 2) + (uu / 2 + nu / 2 + 2));
+    q->ncol = q->nstart + nq + 1;
+    q->fstart = q->ncol + (size_t)nq * nu;
+    q->fcol = q->fstart + nq + 1;
+    if (!made)
+        fs_nlists(q, q->T + q->L.N, imp->terms_const != NULL);
+}
+
+#ifndef EOMC_FS_AVX2_COPY
+/* eomc_implicit.pattern for imp: its run's fixed lists (fs_fixed_lists) in out (fs_fixed_len(nq, nu,
+ * imp->ncontact) doubles, that many returned; out NULL: the count only), made with work (imp->work_len
+ * doubles) as a run makes them.  imp->pattern must be NULL here. */
+size_t eomc_fs_pattern(const eomc_implicit *imp, int nq, int nu, double *work, double *out)
+{
+    size_t len = fs_fixed_len(nq, nu, imp->ncontact), size = fs_layout_of(nq, nu, imp->ncontact).size;
+    eomc_fs_ops ops;
+    fs_fast q;
+    if (out == NULL || imp->pattern != NULL) return len;
+    memset(&ops, 0, sizeof ops);
+    memset(&q, 0, sizeof q);
+    ops.imp = imp; ops.nq = nq; ops.nu = nu;
+    q.ops = &ops;
+    q.L = fs_layout_of(nq, nu, imp->ncontact);
+    q.T = work;
+    memset(q.T, 0, size * sizeof(double));
+    if (imp->terms_const) {     /* N's constants, as eomc_fs_run's buffers hold them */
+        for (size_t i = 0; i < (size_t)nq * nu; i++) q.T[q.L.N + i] = NAN;
+        imp->terms_const(q.T);
+    }
+    fs_fixed_lists(&q, work + size + (size_t)nu * nu, (unsigned char *)(work + size));
+    memcpy(out, work + size + (size_t)nu * nu, len * sizeof(double));
+    return len;
+}
+#endif
+
 #if defined(EOMC_FS_AVX2) && !defined(EOMC_FS_AVX2_COPY)
 /* weak: a build of this file without eomc_fixedstep_avx2.c (a test's harness) runs the SSE2 step */
 int eomc_fs_run_avx2(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long max_steps,
@@ -2790,52 +2891,7 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
         slope = pos; pos += n;
         q.f1 = pos; pos += n;           /* accept's f1: quaternions rescale it; not read back */
         memset(q.f1, 0, (size_t)n * sizeof(double));
-        {
-            /* per-step fill (fs_pattern) with M's tree given and at most 64 speeds, else every pair's
-             * fill at every step.  The lanes rollout's rows too: the lanes never write A or A1 (bare),
-             * so their pattern (eomc_fs_lanes: per call, the union of the group's) is not this one's;
-             * the scalar assemblies of its rows (a split step's tries: 7469 a 64-row humanoid
-             * rollout, fs_tree_lu half of them, perf) take the per-step fill as the scalar rollout's do */
-            const eomc_implicit *imp = ops->imp;
-            int nc = imp->ncontact, dyn = imp->parent != NULL && nu <= 64;
-            unsigned long long *tree = (unsigned long long *)pos, *cross = tree + nu;
-            int *lists;
-            q.pat.bits = cross + nc;
-            pos += 2 * (size_t)nu + (size_t)nc;
-            q.own = (int *)pos; pos += uu / 2 + nu + 2;
-            q.own1 = (int *)pos; pos += uu / 2 + nu + 2;
-            lists = (int *)pos;
-            fs_ancestors(nu, imp->parent, dyn ? NULL : imp, (unsigned char *)q.A1, lists, lists + nu + 1);
-            q.pat.n = nu;
-            q.pat.start = lists;
-            q.pat.anc = lists + nu + 1;
-            q.pat.tree = dyn ? tree : NULL;
-            q.pat.cross = cross;
-            for (int k = 0; k < nu; k++) {
-                tree[k] = 0;
-                for (int x = lists[k]; dyn && x < lists[k + 1]; x++) tree[k] |= 1ULL << lists[nu + 1 + x];
-            }
-            for (int c = 0; c < nc; c++) {     /* a chain that is not on one path joins two branches */
-                unsigned long long m = 0;
-                int path = 1;
-                for (int x = imp->chain_start[c]; dyn && x < imp->chain_start[c + 1]; x++) m |= 1ULL << fs_speed(imp->chain[x]);
-                for (int x = imp->chain_start[c]; dyn && x < imp->chain_start[c + 1]; x++) {
-                    int sp = fs_speed(imp->chain[x]);
-                    if (m & ((1ULL << sp) - 1) & ~tree[sp]) path = 0;
-                }
-                cross[c] = path ? 0 : m;
-            }
-            q.start = q.start1 = q.pat.start;
-            q.anc = q.anc1 = q.pat.anc;
-            q.cstart = lists + nu + 1 + lists[nu];
-            q.cols = q.cstart + nu + 1;
-            fs_columns(nu, q.pat.start, q.pat.anc, q.cstart, q.cols);
-            q.nstart = (int *)((double *)lists + (uu / 2 + nu + 2) + (uu / 2 + nu / 2 + 2));
-            q.ncol = q.nstart + nq + 1;
-            q.fstart = q.ncol + (size_t)nq * nu;
-            q.fcol = q.fstart + nq + 1;
-            fs_nlists(&q, q.T + q.L.N, ops->imp->terms_const != NULL);
-        }
+        fs_fixed_lists(&q, pos, (unsigned char *)q.A1);
         s = fs_loop(ops, st, n, h, maxs, t0, t1, x, slope, fs_fast_advance, &q);
         if (s == EOMC_OK && q.deep >= 0) s = EOMC_PENETRATED;
         return s;

@@ -139,6 +139,12 @@ typedef struct eomc_implicit {
     int nlimit;
     const int *limit_state, *limit_speed, *limit_bound;
     const double *limit_sign;
+    /* NULL, or the run's fixed lists for this struct's model (M's tree pattern, the contacts'
+       branch masks, M's and N's column lists: eomc_fs_pattern made them once, pattern_len doubles),
+       which the fast path then copies at a run's start instead of making them (eomc_fixedstep.c
+       fs_fixed_lists) */
+    const double *pattern;
+    size_t pattern_len;
 } eomc_implicit;
 
 /* One joint limit's spring whose stored energy the watched output leaves out (MJCF's: unilateral
@@ -169,6 +175,9 @@ typedef struct eomc_spring {
 
 /* Doubles of work the fast path needs (add to eomc_integrate_work_size). */
 size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact);
+/* eomc_implicit.pattern of imp (imp->pattern NULL, its other fields set): written to out, its
+   length in doubles returned (out NULL: the length only); work: imp->work_len doubles */
+size_t eomc_fs_pattern(const eomc_implicit *imp, int nq, int nu, double *work, double *out);
 
 typedef struct eomc_options {
     int method;          /* EOMC_RK4 ... EOMC_BDF */

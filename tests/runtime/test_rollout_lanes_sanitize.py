@@ -211,6 +211,16 @@ int main(void)
     imp.work_len = eomc_fs_implicit_work_size(nq, nx - nq, NCONTACT);
     imp.split = SPLIT;
     imp.depth_limit = depth_limit;
+#ifdef FIXED_LISTS      /* the run's fixed lists made once (eomc_fs_pattern), as rollout's structs carry them */
+    {
+        size_t len = eomc_fs_pattern(&imp, nq, nx - nq, NULL, NULL);
+        double *scratch = malloc(imp.work_len * sizeof(double)), *lists = malloc(len * sizeof(double));
+        if (eomc_fs_pattern(&imp, nq, nx - nq, scratch, lists) != len) return 2;
+        free(scratch);
+        imp.pattern = lists;
+        imp.pattern_len = len;
+    }
+#endif
     memset(&opt, 0, sizeof opt);
     opt.method = EOMC_IMPLICITFAST;
     opt.h0 = dt;
@@ -237,7 +247,7 @@ int main(void)
         steps += A_steps[k];
     }
     printf("%s wrong=%d failed=%d split=%d\n", m->name, wrong, failed, calls > steps + n);
-    @FREE_BUFFERS@ free(A_stats); free(B_stats);
+    @FREE_BUFFERS@ free(A_stats); free(B_stats); free((void *)imp.pattern);
     return wrong != 0;
 }
 """
@@ -291,10 +301,13 @@ def test_implicitfast_fibers_clean_under_asan_and_equal_to_the_scalar_rollout(ho
     intercepted), UBSan on the batch and the scalar rows; the rows split steps (more model
     calls than steps) and must equal the scalar rollout's bytes, stats included.  "constants
     apart": terms NAME_implicit_var with terms_const NAME_implicit_const, as rollout runs a model
-    with constant outputs (the lanes copy only the blocks holding the others: var_blocks)."""
+    with constant outputs (the lanes copy only the blocks holding the others: var_blocks), and the
+    run's fixed lists made once (eomc_fs_pattern, N's lists from the constants), as rollout's struct
+    carries them."""
     spec, gm, src = hopper_source
     assert (gm.metadata.get("const_outputs") or {}).get("implicit")
-    defines = {"ucontext": ("-DEOMC_FIBER_UCONTEXT",), "constants apart": ("-DTERMS_CONST",)}.get(switch, ())
+    defines = {"ucontext": ("-DEOMC_FIBER_UCONTEXT",),
+               "constants apart": ("-DTERMS_CONST", "-DFIXED_LISTS")}.get(switch, ())
     out = _build_and_run(src, _hopper_driver(spec, gm), tmp_path, "address,undefined", *defines)
     assert out == f"{gm.name} wrong=0 failed=0 split=1", out
 
@@ -303,7 +316,8 @@ def test_implicitfast_rows_path_clean_under_asan_and_equal_to_the_scalar_rollout
     """eomc_rollout_implicit_lanes_rows (the pairs' slope block written by each lane straight into
     its row; the padding lanes' into a scratch row; the lanes' assembly gathering the pair points
     from the rows) under ASan/UBSan: the limbs scene's rows, the ball 10 mm from the trunk with
-    speeds in +-0.5 (rows close in on it), against the scalar rollout byte for byte."""
+    speeds in +-0.5 (rows close in on it), against the scalar rollout byte for byte; the run's fixed
+    lists made once (eomc_fs_pattern: the ball-trunk pair's branch mask), as rollout's struct carries them."""
     import warnings
     from eomc.compiler.mjcf.model import MjcfModel
     from ..compiler.contact.test_narrow import LIMBS
@@ -322,5 +336,5 @@ def test_implicitfast_rows_path_clean_under_asan_and_equal_to_the_scalar_rollout
     for name, v in (("q_joint0_z", 0.3), ("q_joint3_y", -0.1), ("q_joint3_z", 0.3)):
         x0[names.index(name)] = v
     out = _build_and_run(src, _hopper_driver(spec, gm, x0), tmp_path, "address,undefined",
-                         f"-DBLOCK_FIRST={first}", f"-DBLOCK_LEN={length}")
+                         f"-DBLOCK_FIRST={first}", f"-DBLOCK_LEN={length}", "-DFIXED_LISTS")
     assert out.startswith(f"{gm.name} wrong=0 failed=0"), out
