@@ -1626,9 +1626,9 @@ typedef struct fs_fast {
     fs_pattern pat;
     const int *start, *anc, *start1, *anc1;   /* A's and A1's elimination lists (fs_assemble) */
     int *own, *own1;                          /* where they are made when a pair adds fill */
-    int *cstart, *cols;          /* per speed, the columns of M's row that can be nonzero */
-    int *nstart, *ncol;          /* per coordinate, the columns of N's row that can be nonzero (fs_nlists) */
-    int *fstart, *fcol;          /* ... and the root free joints' columns where N is not constant */
+    const int *cstart, *cols;    /* per speed, the columns of M's row that can be nonzero */
+    const int *nstart, *ncol;    /* per coordinate, the columns of N's row that can be nonzero (fs_nlists) */
+    const int *fstart, *fcol;    /* ... and the root free joints' columns where N is not constant */
     double chart;                /* the last try's fs_chart_ratio (0: none) */
 } fs_fast;
 
@@ -1659,22 +1659,22 @@ static void fs_solve(const fs_fast *q, const double *A, const int *start, const 
  * (0 du[k], or c - c for a constant c) in the same order, so they are the same to the bit: a
  * sum that starts at +0 and adds nonzero or +0 terms never meets the -0 + +0 case (and a
  * non-finite du fails the try on x1 either way). */
-static void fs_nlists(fs_fast *q, const double *N, int known)
+static void fs_nlists(const eomc_implicit *imp, int nq, int nu, const double *N, int known, int *nstart,
+                      int *ncol, int *fstart, int *fcol)
 {
-    const eomc_implicit *imp = q->ops->imp;
-    int nq = q->ops->nq, nu = q->ops->nu, pos = 0, fpos = 0;
+    int pos = 0, fpos = 0;
     for (int i = 0; i < nq; i++) {
         const double *row = N + (size_t)i * nu;
-        q->nstart[i] = pos;
+        nstart[i] = pos;
         for (int k = 0; k < nu; k++)
-            if (!known || isnan(row[k]) || row[k] != 0.0) q->ncol[pos++] = k;
-        q->fstart[i] = fpos;
+            if (!known || isnan(row[k]) || row[k] != 0.0) ncol[pos++] = k;
+        fstart[i] = fpos;
         for (int f = 0; f < imp->nfree; f++)
             for (int k = imp->free[f]; k < imp->free[f] + 6; k++)
-                if (!known || isnan(row[k])) q->fcol[fpos++] = k;
+                if (!known || isnan(row[k])) fcol[fpos++] = k;
     }
-    q->nstart[nq] = pos;
-    q->fstart[nq] = fpos;
+    nstart[nq] = pos;
+    fstart[nq] = fpos;
 }
 
 static void fs_swap(double **a, double **b)
@@ -2753,31 +2753,31 @@ static int fs_loop(const eomc_fs_ops *ops, eomc_stats *st, int n, double h, long
  * assemblies of its rows (a split step's tries: 7469 a 64-row humanoid rollout, fs_tree_lu half of
  * them, perf) take the per-step fill as the scalar rollout's do.  They depend on the model alone
  * (its tree, contacts' chains, free joints, N's constants: q->T holds terms_const's), so where
- * eomc_implicit.pattern holds them (made once per model: eomc_fs_pattern) they are copied, not made:
- * ~4 us a row on gymnasium's humanoid (138 contacts' branch masks, the lists), what a rollout of one
- * step a call paid per row (session 53).  mark: nu * nu bytes of scratch. */
+ * eomc_implicit.pattern holds them (made once per model: eomc_fs_pattern) the run reads them there
+ * (read-only; the scratch bits and own lists stay in blk): ~4 us a row on gymnasium's humanoid (138
+ * contacts' branch masks, the lists), what a rollout of one step a call paid per row (session 53).
+ * mark: nu * nu bytes of scratch. */
 static void fs_fixed_lists(fs_fast *q, double *blk, unsigned char *mark)
 {
     const eomc_implicit *imp = q->ops->imp;
     int nq = q->ops->nq, nu = q->ops->nu;
-    size_t uu = (size_t)nu * nu;
+    size_t uu = (size_t)nu * nu, own = uu / 2 + nu + 2;
     int nc = imp->ncontact, dyn = imp->parent != NULL && nu <= 64;
     int made = imp->pattern != NULL && imp->pattern_len == fs_fixed_len(nq, nu, nc);
-    double *pos = blk;
-    unsigned long long *tree = (unsigned long long *)pos, *cross = tree + nu;
-    int *lists;
-    if (made)
-        memcpy(blk, imp->pattern, imp->pattern_len * sizeof(double));
-    q->pat.bits = cross + nc;
-    pos += 2 * (size_t)nu + (size_t)nc;
-    q->own = (int *)pos; pos += uu / 2 + nu + 2;
-    q->own1 = (int *)pos; pos += uu / 2 + nu + 2;
-    lists = (int *)pos;
+    /* the lists: read where they were made once, else made here in blk (the same offsets) */
+    const double *fixed = made ? imp->pattern : blk;
+    const unsigned long long *tree = (const unsigned long long *)fixed;
+    const int *lists = (const int *)(fixed + 2 * (size_t)nu + nc + 2 * own);
+    q->pat.bits = (unsigned long long *)blk + nu + nc;      /* scratch: always the run's own */
+    q->own = (int *)(blk + 2 * (size_t)nu + nc);
+    q->own1 = (int *)(blk + 2 * (size_t)nu + nc + own);
     if (!made) {
-        fs_ancestors(nu, imp->parent, dyn ? NULL : imp, mark, lists, lists + nu + 1);
+        unsigned long long *mtree = (unsigned long long *)blk, *mcross = mtree + nu;
+        int *mlists = (int *)(blk + 2 * (size_t)nu + nc + 2 * own), *mcstart, *mnstart;
+        fs_ancestors(nu, imp->parent, dyn ? NULL : imp, mark, mlists, mlists + nu + 1);
         for (int k = 0; k < nu; k++) {
-            tree[k] = 0;
-            for (int x = lists[k]; dyn && x < lists[k + 1]; x++) tree[k] |= 1ULL << lists[nu + 1 + x];
+            mtree[k] = 0;
+            for (int x = mlists[k]; dyn && x < mlists[k + 1]; x++) mtree[k] |= 1ULL << mlists[nu + 1 + x];
         }
         for (int c = 0; c < nc; c++) {     /* a chain that is not on one path joins two branches */
             unsigned long long m = 0;
@@ -2785,28 +2785,29 @@ static void fs_fixed_lists(fs_fast *q, double *blk, unsigned char *mark)
             for (int x = imp->chain_start[c]; dyn && x < imp->chain_start[c + 1]; x++) m |= 1ULL << fs_speed(imp->chain[x]);
             for (int x = imp->chain_start[c]; dyn && x < imp->chain_start[c + 1]; x++) {
                 int sp = fs_speed(imp->chain[x]);
-                if (m & ((1ULL << sp) - 1) & ~tree[sp]) path = 0;
+                if (m & ((1ULL << sp) - 1) & ~mtree[sp]) path = 0;
             }
-            cross[c] = path ? 0 : m;
+            mcross[c] = path ? 0 : m;
         }
+        mcstart = mlists + nu + 1 + mlists[nu];
+        fs_columns(nu, mlists, mlists + nu + 1, mcstart, mcstart + nu + 1);
+        mnstart = (int *)((double *)mlists + (uu / 2 + nu + 2) + (uu / 2 + nu / 2 + 2));
+        fs_nlists(imp, nq, nu, q->T + q->L.N, imp->terms_const != NULL, mnstart, mnstart + nq + 1,
+                  mnstart + nq + 1 + (size_t)nq * nu, mnstart + nq + 1 + (size_t)nq * nu + nq + 1);
     }
     q->pat.n = nu;
     q->pat.start = lists;
     q->pat.anc = lists + nu + 1;
     q->pat.tree = dyn ? tree : NULL;
-    q->pat.cross = cross;
+    q->pat.cross = tree + nu;
     q->start = q->start1 = q->pat.start;
     q->anc = q->anc1 = q->pat.anc;
     q->cstart = lists + nu + 1 + lists[nu];
     q->cols = q->cstart + nu + 1;
-    if (!made)
-        fs_columns(nu, q->pat.start, q->pat.anc, q->cstart, q->cols);
-    q->nstart = (int *)((double *)lists + (uu / 2 + nu + 2) + (uu / 2 + nu / 2 + 2));
+    q->nstart = (const int *)((const double *)lists + (uu / 2 + nu + 2) + (uu / 2 + nu / 2 + 2));
     q->ncol = q->nstart + nq + 1;
     q->fstart = q->ncol + (size_t)nq * nu;
     q->fcol = q->fstart + nq + 1;
-    if (!made)
-        fs_nlists(q, q->T + q->L.N, imp->terms_const != NULL);
 }
 
 #ifndef EOMC_FS_AVX2_COPY
