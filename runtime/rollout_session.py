@@ -34,11 +34,13 @@ class Rollout:
     raise_on_failure); ``ro(x0s, steps=5, r=actions)`` (or ``t_final=``) integrates the rows of
     x0s ((n, nx)) from t = 0 with inputs r as ``rollout`` takes them, and returns a
     RolloutResult.  ``ro.method`` is the method the rows run (None before the first call when
-    method=None: it is chosen on the first call's rows).
+    method=None: it is chosen on the first call's rows, and again after ``set_params``).
 
-    Parameters are fixed at construction (they set the fast path's depth limits and the energy
-    watch's springs); p with one row per trajectory fixes the row count.  Nothing here holds
-    state between calls but the plans: a call's rows start from its x0s, at t = 0.
+    Parameters are set at construction, or by ``ro.set_params(p)`` (domain randomisation: new
+    parameters each episode; the plans are made again on the next call, as they hold the fast
+    path's depth limits and the energy watch's springs); p with one row per trajectory fixes the
+    row count.  Nothing here holds state between calls but the plans: a call's rows start from its
+    x0s, at t = 0.
     """
 
     def __init__(self, model, *, dt=None, method=None, p=None, threads=None, record="final", lanes=False,
@@ -48,16 +50,23 @@ class Rollout:
         # 1 s for an adaptive method, stands for the calls' spans), and the parameters
         stepped = dt is not None
         _Plan.arguments(model, dt, None if stepped else 1.0, 1 if stepped else None, method, record, lanes, rtol)
-        rows = np.shape(p)[0] if p is not None and np.ndim(p) == 2 else 1
-        self._params = {rows: _params(model, p, rows)}      # n -> (P, p_stride)
-        self.model = model
-        self._p = p
+        self.model, self._method = model, method
+        self.set_params(p)
         self._options = dict(dt=dt, threads=threads, record=record, lanes=lanes, split=split, rtol=rtol,
                              atol=atol, max_steps=max_steps, K=K, x_ref=x_ref, events=events,
                              max_events=max_events)
-        self.method = method
         self.consistent, self.raise_on_failure = consistent, raise_on_failure
+
+    def set_params(self, p):
+        """The parameters of the calls from now on: None (the model's defaults), (nparam,) for every
+        row or (n, nparam), one row per trajectory (checked now, as rollout checks them).  With
+        method=None the method is chosen again on the next call's rows (stiffness is the
+        parameters')."""
+        rows = np.shape(p)[0] if p is not None and np.ndim(p) == 2 else 1
+        self._params = {rows: _params(self.model, p, rows)}      # n -> (P, p_stride)
+        self._p = None if p is None else np.array(p, dtype=np.float64)     # a copy: the caller's may change
         self._plans = OrderedDict()     # (n, steps, t_final) -> _Plan
+        self.method = self._method
 
     def __call__(self, x0s, *, steps=None, t_final=None, r=None):
         """The rows of x0s integrated over ``steps`` steps (or to ``t_final``) with inputs r: a

@@ -63,6 +63,23 @@ def test_inputs_per_call_and_per_row_parameters():
         ro(np.zeros((4, m.nx)), steps=5)      # the parameters' rows fix the row count
 
 
+def test_set_params_takes_effect_on_the_next_call():
+    """Domain randomisation: new parameters each episode; every call then equals rollout with them,
+    and the caller's array changing afterwards changes nothing."""
+    m = get_model("oscillator")
+    X0 = np.random.default_rng(4).normal(size=(5, m.nx))
+    ro = Rollout(m, dt=0.01, method="rk4")
+    _same(ro(X0, steps=30), rollout(m, X0, dt=0.01, method="rk4", steps=30))
+    for k in (2.0, 9.0):
+        P = np.column_stack([np.full(5, k), np.linspace(0.5, 1.5, 5), np.full(5, 0.1)])
+        ro.set_params(P)
+        want = rollout(m, X0, dt=0.01, method="rk4", steps=30, p=P.copy())
+        P[:] = 1.0
+        _same(ro(X0, steps=30), want)
+    with pytest.raises(ValueError, match="has a non-finite k"):
+        ro.set_params([np.nan, 1.0, 0.0])
+
+
 def test_feedback_gains_run_through_the_same_plan():
     m = get_model("oscillator")
     K = np.array([[4.0, 1.5]])
@@ -86,6 +103,8 @@ def test_method_none_is_chosen_on_the_first_call_and_kept(tmp_path):
     assert ro.method == got.method == "implicitfast" and got.ok.all()
     _same(got, rollout(m, X0, dt=0.01, p=stiff, steps=100, threads=1))
     assert ro(X0[:2], steps=3).method == "implicitfast"
+    ro.set_params([4.0, 0.5, 1.0])          # soft again: chosen anew on the next call
+    assert ro.method is None and ro(X0, steps=10).method == "rk4"
     soft = Rollout(m, dt=0.01, threads=1)
     assert soft(X0, steps=10).method == "rk4" and soft.method == "rk4"
     _same(soft(X0[:3], steps=7), rollout(m, X0[:3], dt=0.01, steps=7, threads=1))
