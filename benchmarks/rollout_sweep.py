@@ -15,6 +15,9 @@ dm_control's suite, with the starts a Monte Carlo or an RL reset makes:
   ``lanes=True`` where the model has NAME_implicit_batch: rows equal to the
   scalar ones, else the largest |difference| (the lanes' vector sin/cos are 1 ulp of libm's, and a
   contact run is chaotic), and the CPU of both;
+- ``eomc.Rollout`` as an environment calls it (3 calls of 5 steps at the file's timestep, each call
+  from the rows the last one ended on) against ``eomc.rollout`` of the same rows: states, statuses,
+  messages and method equal;
 - the default adaptive rollout (``t_final`` only: method "auto") of 4 rows for 0.2 s against
   ``simulate`` (x_final bit for bit, and the status).
 
@@ -108,6 +111,13 @@ def one_file(path, cache_dir, rows, t_final, urdf_dt=0.001):
             lanes_cpu = f"{cpu_l:.3f}"
         else:
             lanes_cell, lanes_cpu = "-", "-"
+        # eomc.Rollout, as an environment calls it: 3 calls of 5 steps, each from the last call's rows
+        ro, X, kept = eomc.Rollout(m, dt=dt, threads=1, raise_on_failure=False), X0, 0
+        for _ in range(3):
+            a, b = ro(X, steps=5), eomc.rollout(m, X, steps=5, dt=dt, threads=1, raise_on_failure=False)
+            kept += (np.array_equal(a.x, b.x) and np.array_equal(a.status, b.status) and a.messages == b.messages
+                     and a.method == b.method)
+            X = a.x
         auto = eomc.rollout(m, X0[:4], t_final=0.2, raise_on_failure=False)
         autos = [m.simulate(X0[i], (0, 0.2), raise_on_failure=False) for i in range(4)]
         auto_eq = sum(np.array_equal(r.x_final, auto.x[i]) and r.status == auto.status[i] for i, r in enumerate(autos))
@@ -116,7 +126,7 @@ def one_file(path, cache_dir, rows, t_final, urdf_dt=0.001):
     k = len([i for i in SIM_ROWS if i < rows])
     row = [m.nx, f"{b_cpu:.1f}", f"{dt:g} x {n}", method, counts(one.status), f"{sim_eq}/{k}",
            "yes" if np.array_equal(one.x, two.x) and np.array_equal(one.status, two.status) else "NO",
-           f"{cpu1:.3f}", lanes_cell, lanes_cpu, f"{auto_eq}/4", counts(auto.status)]
+           f"{cpu1:.3f}", lanes_cell, lanes_cpu, f"{kept}/3", f"{auto_eq}/4", counts(auto.status)]
     return row, (first[0] if first else ""), len(seen)
 
 
@@ -141,13 +151,13 @@ def main():
             cells, warn, nwarn = one_file(path, cache, args.rows, args.t_final, args.urdf_dt)
             cells.append(f"{nwarn}: {warn[:110]}" if nwarn else "")
         except Exception as exc:  # noqa: BLE001 -- the row says what broke
-            cells = ["-"] * 12 + [f"FAILED {type(exc).__name__}: {str(exc)[:110]}"]
+            cells = ["-"] * 13 + [f"FAILED {type(exc).__name__}: {str(exc)[:110]}"]
         rows.append([group, label, *cells])
         print(f"[{i}/{len(files)}] {group} {label}: {cells[4]}; simulate {cells[5]}, threads {cells[6]}, "
-              f"lanes {cells[8]}, auto {cells[10]}", flush=True)
+              f"lanes {cells[8]}, Rollout {cells[10]}, auto {cells[11]}", flush=True)
     header = ["set", "file", "nx", "build CPU s", "dt x steps", "method", "statuses (16 rows)",
               "rows = simulate", "2 threads = 1", "CPU s, 1 thread", "lanes vs scalar rows", "lanes CPU s",
-              "auto rows = simulate", "auto statuses", "warnings: first"]
+              "Rollout calls = rollout", "auto rows = simulate", "auto statuses", "warnings: first"]
     header[6] = f"statuses ({args.rows} rows)"
     text = "\n".join([
         environment_header(f"eomc.rollout on every real {'URDF' if args.urdf else 'MJCF'} file: rows against simulate, "
