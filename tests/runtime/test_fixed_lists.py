@@ -16,6 +16,8 @@ import warnings
 import numpy as np
 import pytest
 
+from helpers.mjcf_builds import text_model
+
 import eomc
 import eomc.runtime.simulate as simulate_module
 from eomc.runtime.simulate import implicit_terms
@@ -24,14 +26,7 @@ from tests.runtime.test_rollout_energy_watch import FLOORED, WATCHED
 
 @pytest.fixture(scope="module")
 def limbs(tmp_path_factory):
-    from eomc.compiler.mjcf.model import MjcfModel
-    tmp = tmp_path_factory.mktemp("fl")
-    path = tmp / "limbs.xml"
-    path.write_text(FLOORED)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return eomc.compile(MjcfModel(path, pairs=True), "fl_limbs", functions=WATCHED + ("jac_x",),
-                            cache_dir=tmp / "cache", progress=False)
+    return text_model(FLOORED, "fl_limbs", tmp_path_factory.mktemp("fl"), WATCHED + ("jac_x",), mjcf=dict(pairs=True))
 
 
 def _starts(model):

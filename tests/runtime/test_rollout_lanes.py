@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers.mjcf_builds import gym_model
+
 from eomc.compiler.driver import compile as compile_model
 from eomc.errors import SimulationError
 from eomc.runtime.rollout import rollout
@@ -135,15 +137,8 @@ def test_quaternion_rows_in_lanes_equal_the_scalar_rollout(tmp_path):
 
 @pytest.fixture(scope="module")
 def hopper(tmp_path_factory):
-    import warnings
-    gymnasium = pytest.importorskip("gymnasium")
-    from eomc.compiler.mjcf.model import MjcfModel
-    path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
-    with warnings.catch_warnings():      # the file's self-collision pairs left out (said by a warning)
-        warnings.simplefilter("ignore")
-        return compile_model(MjcfModel(path), "rl_hopper", functions=("rhs", "implicit", "implicit_batch"),
-                             cache_dir=tmp_path_factory.mktemp("rlh"), progress=False,
-                             cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
+    return gym_model("hopper.xml", "rl_hopper", tmp_path_factory.mktemp("rlh"), ("rhs", "implicit", "implicit_batch"),
+                     cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
 
 
 def _hopper_starts(model, n, seed=0):
@@ -253,18 +248,11 @@ def hopper_bench(tmp_path_factory):
     (so outputs and energy: NAME_implicit ends with the energy and the rollout's energy watch is
     on) and the default flags with this machine's (-mavx2 -ffp-contract=off ... where it has AVX2),
     plus -DEOMC_BATCH_LIBM_TRIG: libm's sin/cos in the lanes."""
-    import warnings
-    gymnasium = pytest.importorskip("gymnasium")
     from eomc.compiler.build.toolchain import DEFAULT_CFLAGS, find_compiler, machine_flags
     from eomc.compiler.emit.signatures import FUNCTION_ORDER, ON_REQUEST
-    from eomc.compiler.mjcf.model import MjcfModel
-    path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
     functions = tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",)
-    with warnings.catch_warnings():      # the file's self-collision pairs left out (said by a warning)
-        warnings.simplefilter("ignore")
-        return compile_model(MjcfModel(path), "rl_hopper_bench", functions=functions,
-                             cache_dir=tmp_path_factory.mktemp("rlhb"), progress=False,
-                             cflags=[*DEFAULT_CFLAGS, *machine_flags(find_compiler()), "-DEOMC_BATCH_LIBM_TRIG"])
+    return gym_model("hopper.xml", "rl_hopper_bench", tmp_path_factory.mktemp("rlhb"), functions,
+                     cflags=[*DEFAULT_CFLAGS, *machine_flags(find_compiler()), "-DEOMC_BATCH_LIBM_TRIG"])
 
 
 def test_the_benchmarks_build_with_libm_trig_gives_the_scalar_rows_over_a_second(hopper_bench):
@@ -401,14 +389,7 @@ def test_lanes_that_pass_beside_lanes_whose_pivot_fails(hopper):
 
 
 def test_implicitfast_lanes_refused_without_implicit_batch(tmp_path):
-    import warnings
-    gymnasium = pytest.importorskip("gymnasium")
-    from eomc.compiler.mjcf.model import MjcfModel
-    path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        plain = compile_model(MjcfModel(path), "rl_hplain", functions=("rhs", "implicit"), cache_dir=tmp_path,
-                              progress=False)
+    plain = gym_model("hopper.xml", "rl_hplain", tmp_path, ("rhs", "implicit"))
     with pytest.raises(ValueError, match="built without implicit_batch"):
         rollout(plain, _hopper_starts(plain, 2), dt=0.008, steps=2, method="implicitfast", lanes=True)
 

@@ -10,26 +10,18 @@ in fixed groups instead, whose rows' bits depended on the group's other rows).  
 rollout again, with other thread counts, and the rows run among other rows; the gym hopper with
 its contacts and split steps.
 """
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from eomc.compiler.driver import compile as compile_model
+from helpers.mjcf_builds import gym_model
+
 from eomc.runtime.rollout import rollout
 
 
 @pytest.fixture(scope="module")
 def hopper_vec(tmp_path_factory):
-    import warnings
-    gymnasium = pytest.importorskip("gymnasium")
-    from eomc.compiler.mjcf.model import MjcfModel
-    path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
-    with warnings.catch_warnings():      # the file's self-collision pairs left out (said by a warning)
-        warnings.simplefilter("ignore")
-        return compile_model(MjcfModel(path), "rl_hopper_vec", functions=("rhs", "implicit", "implicit_batch"),
-                             cache_dir=tmp_path_factory.mktemp("rlhv"), progress=False,
-                             cflags="-O2 -std=c99 -fPIC")        # the vector sin/cos
+    return gym_model("hopper.xml", "rl_hopper_vec", tmp_path_factory.mktemp("rlhv"),
+                     ("rhs", "implicit", "implicit_batch"), cflags="-O2 -std=c99 -fPIC")     # the vector sin/cos
 
 
 def _starts(model, n, seed=0):

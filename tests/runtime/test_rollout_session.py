@@ -6,11 +6,11 @@ and warnings must be the same bits, call after call, with other starts, inputs a
 them (a plan or a buffer kept across calls that leaks one call's rows into the next is a bug).
 """
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.mjcf_builds import gym_model
 from helpers.stand_in import get_model
 
 import eomc
@@ -164,14 +164,8 @@ def test_eomc_exports_it():
 
 @pytest.fixture(scope="module")
 def hopper(tmp_path_factory):
-    gymnasium = pytest.importorskip("gymnasium")
-    from eomc.compiler.mjcf.model import MjcfModel
-    path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
-    with warnings.catch_warnings():      # the file's self-collision pairs left out (said by a warning)
-        warnings.simplefilter("ignore")
-        return eomc.compile(MjcfModel(path), "rs_hopper",
-                            functions=("rhs", "outputs", "energy", "jac_x", "implicit", "implicit_batch"),
-                            cache_dir=tmp_path_factory.mktemp("rsh"), progress=False)
+    return gym_model("hopper.xml", "rs_hopper", tmp_path_factory.mktemp("rsh"),
+                     ("rhs", "outputs", "energy", "jac_x", "implicit", "implicit_batch"))
 
 
 def _hopper_starts(model, n, seed):

@@ -8,28 +8,19 @@ only because the loop zeroes out[]'s block, and a caller's out[] holds the previ
 (the fixed step reuses it).  Oracles: the outputs function (depth, point, F_n per pair; no force, no
 slope) and out[] prefilled with NaN (an entry left unwritten fails NAME_finite_wide) or with another
 state's block.  The slopes' values against central differences: test_pair_slopes.py."""
-import warnings
-
 import numpy as np
 import pytest
 
-import eomc
-
 from helpers.implicit_call import call_into
+from helpers.mjcf_builds import text_model
 
 from .test_narrow import LIMBS
 
 
 @pytest.fixture(scope="module")
 def limbs(tmp_path_factory):
-    from eomc.compiler.mjcf.model import MjcfModel
     tmp = tmp_path_factory.mktemp("into")
-    path = tmp / "limbs.xml"
-    path.write_text(LIMBS)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        model = eomc.compile(MjcfModel(path, pairs=True), "linto", functions=("rhs", "outputs", "implicit"),
-                             cache_dir=tmp / "cache", progress=False)
+    model = text_model(LIMBS, "linto", tmp, ("rhs", "outputs", "implicit"), mjcf=dict(pairs=True))
     (source,) = tmp.glob("cache/**/linto.c")
     return model, source.read_text()
 
@@ -38,15 +29,11 @@ def limbs(tmp_path_factory):
 def limbs_lanes(tmp_path_factory):
     """The limbs on a floor built for the lanes rollout too: NAME_implicit's out[] then ends with the
     energy, an output after the pairs' block (compiler/tree/lower.implicit_layout)."""
-    from eomc.compiler.mjcf.model import MjcfModel
     tmp = tmp_path_factory.mktemp("into_lanes")
-    path = tmp / "limbs.xml"       # on a floor: a model with contacts has the energy output
-    path.write_text(LIMBS.replace("<worldbody>", '<worldbody><geom name="floor" type="plane" size="2 2 0.1"/>', 1))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        model = eomc.compile(MjcfModel(path, pairs=True), "lintol",
-                             functions=("rhs", "outputs", "implicit", "implicit_batch"),
-                             cache_dir=tmp / "cache", progress=False)
+    floored = LIMBS.replace("<worldbody>", '<worldbody><geom name="floor" type="plane" size="2 2 0.1"/>', 1)
+    # on a floor: a model with contacts has the energy output
+    model = text_model(floored, "lintol", tmp, ("rhs", "outputs", "implicit", "implicit_batch"),
+                       mjcf=dict(pairs=True))
     (source,) = tmp.glob("cache/**/lintol.c")
     return model, source.read_text()
 
