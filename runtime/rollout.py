@@ -221,7 +221,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     false: its scalar function row by row, e.g. dm_control's humanoid_CMU with its ground table)
     runs the scalar rows instead: the same bits, without the lanes' copies (5.8x faster there).
     """
-    X0 = _plan_x0s(model, x0s, dt, t_final, steps, method, record, lanes)
+    X0 = _plan_x0s(model, x0s, dt, t_final, steps, method, record, lanes, rtol)
     n = X0.shape[0]
     P, p_stride = _params(model, p, n)
     controls = _controls(model, r, n)
@@ -231,10 +231,10 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     return plan.run(X0, controls, r, consistent, raise_on_failure)
 
 
-def _plan_x0s(model, x0s, dt, t_final, steps, method, record, lanes):
+def _plan_x0s(model, x0s, dt, t_final, steps, method, record, lanes, rtol):
     """The rows of x0s checked (_x0s), after the span's and method's arguments (_Plan checks them
     again, cheaply: their errors come first, as they always did)."""
-    _Plan.arguments(model, dt, t_final, steps, method, record, lanes, 1e-6)
+    _Plan.arguments(model, dt, t_final, steps, method, record, lanes, rtol)
     return _x0s(model, x0s)
 
 
@@ -318,7 +318,7 @@ class _Plan:
             events = None if _terminal_events(model) else False
         if model.c_model.rhs == model.ffi.NULL:
             raise model._missing("rhs")
-        nthreads = _threads(threads)
+        nthreads = _threads(threads)     # (C starts no more threads than rows: eomc_rollout.c)
         gains = _gains(model, K, x_ref, n) if (K is not None or x_ref is not None) else None
         implicit_lanes = lanes and method == "implicitfast"
         if implicit_lanes:
