@@ -93,6 +93,14 @@ class Rollout:
             self._plans.popitem(last=False)
         return plan
 
+    def __getstate__(self):
+        """Pickled without its plans (C structs; made again on the next call): a Rollout travels to a
+        worker process with its model (which pickles by content) and its options."""
+        state = dict(self.__dict__)
+        state["_plans"] = OrderedDict()
+        state["method"] = self._method
+        return state
+
     def __repr__(self):
         return (f"<eomc.Rollout of {self.model.name}: method {self.method or 'chosen on the first call'}, "
                 f"dt {self._options['dt']}>")

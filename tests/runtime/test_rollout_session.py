@@ -156,6 +156,20 @@ def test_failed_rows_raise_or_are_kept_as_rollout_does():
         assert kept.status.tolist()[0] == 0 and kept.status[1] != 0 and kept.status[2] == 0
 
 
+def test_pickled_without_its_plans_and_equal_after(tmp_path):
+    """A Rollout goes to a worker process with its model and options; its plans (C structs) are
+    made again there.  A built model (it pickles by content) and a fresh process's view of it."""
+    import pickle
+    from tests.runtime.test_rollout import _spring
+    m = _spring(tmp_path, "rs_pickled")
+    X0 = np.column_stack([np.linspace(-1.0, 1.0, 4), np.zeros(4)])
+    ro = Rollout(m, dt=0.01, p=[1e6, 0.5, 1.0], threads=1)
+    want = ro(X0, steps=20)
+    back = pickle.loads(pickle.dumps(ro))
+    assert not back._plans and back.method is None      # chosen again on its first call
+    _same(back(X0, steps=20), want)
+
+
 def test_eomc_exports_it():
     assert eomc.Rollout is Rollout and "Rollout" in eomc.__all__
 
