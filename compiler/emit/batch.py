@@ -405,6 +405,16 @@ _VECTOR_EXACT["tanh0"] = """static EOMC_VTARGET eomc_vd {p}_v_tanh0(eomc_vd a)
     return v;
 }}"""
 
+# printer.MINMAX_C's eomc_tanhc in lanes, lane by lane with the scalar helper's arithmetic (the joint
+# friction's secant slope, compiler/tree/joint_laws.tanhc)
+_VECTOR_EXACT["tanhc"] = """static EOMC_VTARGET eomc_vd {p}_v_tanhc(eomc_vd a)
+{{
+    eomc_vd v = {{0}};   /* every lane set below; the zero keeps gcc's -Wmaybe-uninitialized quiet */
+    int l;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) v[l] = a[l] != 0.0 ? tanh(a[l]) / a[l] : 1.0;
+    return v;
+}}"""
+
 _VECTOR_EXACT["sign"] = """static EOMC_VTARGET eomc_vd {p}_v_sign(eomc_vd a)
 {{
     eomc_vd v = {{0}};   /* every lane set below; the zero keeps gcc's -Wmaybe-uninitialized quiet */
@@ -661,9 +671,9 @@ class _Rewriter:
             elif name in ("sin", "cos") and len(args) == 1:
                 self.used |= {"trig", f"v{name}"}
                 out.append(f"{self.prefix}_v{name}({new[0]})")
-            elif name == "eomc_tanh0" and len(args) == 1:         # printer.MINMAX_C's, in lanes
-                self.used.add("tanh0")
-                out.append(f"{self.prefix}_v_tanh0({new[0]})")
+            elif name in ("eomc_tanh0", "eomc_tanhc") and len(args) == 1:    # printer.MINMAX_C's, in lanes
+                self.used.add(name[5:])
+                out.append(f"{self.prefix}_v_{name[5:]}({new[0]})")
             elif (name in MATH1 and len(args) == 1) or (_LIBM.get(name, name) in MATH2 and len(args) == 2):
                 name = _LIBM.get(name, name)
                 self.used.add(name)
@@ -1254,7 +1264,7 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="",
 _PAIR_RENAMED = re.compile(r"\b(t\d+|o\d+|piv|c[vTfa]\d+|dsum|dmin|L\d+_\d+|SC\d+|sin_\d+|cos_\d+|x|p|r|xdot|st)\b")
 _PAIR_KEPT = {"k", "l_", "k_", "a_", "lt_", "t", "const", "eomc_vd", "eomc_vu", "double", "int", "for", "if", "void",
               "DBL_MAX"}
-_SCALAR_CALLS = {"sin", "cos", *MATH1, *MATH2, *_LIBM, "eomc_tanh0"}     # left as calls on doubles (constants) by the rewrite
+_SCALAR_CALLS = {"sin", "cos", *MATH1, *MATH2, *_LIBM, "eomc_tanh0", "eomc_tanhc"}     # left as calls on doubles (constants) by the rewrite
 _PAIR_ONCE = re.compile(r"^\s*(?:for \(k = \d+; k (?:<|>=) \d+; k(?:\+\+|--)\) \{|\{|\}|int k;|int l_;|\(void\)t;)$")
 
 

@@ -58,6 +58,12 @@ MINMAX_C = {"eomc_fmax": """static inline double eomc_fmax(double a, double b)
             "eomc_tanh0": """static inline double eomc_tanh0(double x)
 {
     return x != 0.0 ? tanh(x) : x;
+}""",
+            # compiler/tree/joint_laws.tanhc: tanh(x)/x, 1 at x = ±0 (its limit; a NaN stays NaN) -- the
+            # joint friction's secant slope in NAME_implicit
+            "eomc_tanhc": """static inline double eomc_tanhc(double x)
+{
+    return x != 0.0 ? tanh(x) / x : 1.0;
 }"""}
 
 # Helpers that are not inline (gcc and clang warn of an unused static function: a file defines

@@ -66,7 +66,9 @@ def tree_lu_function(name, parents):
     n = len(parents)
     if lists is None:
         return None
-    out = ["    double scale = 0.0, d, inv;",
+    # inv only where a speed has ancestors (a tree of roots alone, a hinge's: no update, and an
+    # unused variable under -Wall -Wextra -Werror)
+    out = [f"    double scale = 0.0, d{', inv' if any(lists) else ''};",
            f"    for (int k = 0; k < {n}; k++)",
            f"        if (fabs(A[k * {n} + k]) > scale) scale = fabs(A[k * {n} + k]);",
            "    if (!isfinite(scale)) return 1;"]

@@ -61,7 +61,7 @@ import math
 import sympy as sm
 
 from ..emit.layout import power_as_it_stands
-from ..contact.law import step  # noqa: F401 -- ramp's derivative; defined there for the contact pairs' choices
+from ..contact.law import step  # ramp's derivative (defined there for the contact pairs' choices)
 
 __all__ = ["ramp", "step", "JointLaw", "joint_torque", "check_law", "TIME_CONSTANT", "WIDTH", "FRICTION_SPEED", "NAMES",
            "limit_gains", "scale_gains", "limit_spring", "limit_energy", "law_shape", "PUSH_DIVISOR", "JointLawError", "JointScale", "LOAD_GIVE",
@@ -277,6 +277,64 @@ class ramp(sm.Function):
 
     def _pythoncode(self, printer):
         return f"max({printer._print(self.args[0])}, 0.0)"
+
+
+class secant_tanh(sm.Function):
+    """tanh(x) whose derivative is taken as its secant from 0, tanh(x)/x (1 at x = 0): the joint
+    friction's slope in NAME_implicit (compiler/tree/lower._implicit_results), never its force.
+
+    Why: the fixed step's matrix holds each joint law's damping slope -dtau/du (eomc_fixedstep.c,
+    linearly implicit Euler).  Regularised Coulomb friction -f tanh(u/v) has the tangent slope
+    f/v sech²(u/v): nil along a fast slip, so the step took the friction as an explicit force, which
+    overshoots and gains energy where f h / I is large -- example-robot-data's Allegro hands (f = 10
+    N m on finger links of grams, v = 0.01): the first 1 ms step of a start at 0.2-0.5 rad/s gained
+    1.7 % of the hand's energy, 5-6 of 16 rollout rows failed for created energy at any dt down to
+    10 us, where an accurate Radau run's energy only falls (session 53).  The secant f tanh(u/v)/u
+    (the contacts' friction takes the same: fs_secant_friction) is f/v at rest, where the two agree,
+    and in a slip the damping that stops the joint within the step without reversing it.  Only the
+    linearisation changes: the step still solves the same law (its residual test is the law's)."""
+    nargs = 1
+
+    def fdiff(self, argindex=1):
+        return tanhc(self.args[0])
+
+
+class tanhc(sm.Function):
+    """tanh(x)/x, 1 at x = 0: :class:`secant_tanh`'s slope, printed as one call ``eomc_tanhc(x)``
+    (compiler/emit/printer.MINMAX_C; in lanes batch._VECTOR_EXACT).  Why a function: written as
+    (tanh(x) + z)/(x + z) with z = 1 at x = 0 from steps, SymPy's sum printed as 1 - (-x) - z1 - z2
+    cancels x below 1e-16 to 0/0 -- a fast-path step of a joint coming to rest stopped on a NaN."""
+    nargs = 1
+
+    @classmethod
+    def eval(cls, x):
+        if x.is_Number:
+            return sm.S.One if x == 0 else sm.tanh(x) / x
+
+    def _eval_is_extended_real(self):
+        return self.args[0].is_extended_real
+
+    def _eval_evalf(self, prec):
+        x = self.args[0].evalf(prec)
+        return (sm.S.One if x == 0 else (sm.tanh(x) / x).evalf(prec)) if x.is_Number else None
+
+    def _ccode(self, printer):
+        return f"eomc_tanhc({printer._print(self.args[0])})"
+
+    def _numpycode(self, printer):
+        a = printer._print(self.args[0])
+        return f"numpy.where(({a}) != 0, numpy.tanh({a}) / numpy.where(({a}) != 0, {a}, 1.0), 1.0)"
+
+    def _pythoncode(self, printer):
+        a = printer._print(self.args[0])
+        return f"(math.tanh({a}) / ({a}) if ({a}) != 0 else 1.0)"
+
+
+def secant_friction(t, u):
+    """The law ``t`` with each tanh of the speed ``u`` (regularised Coulomb friction) as
+    :class:`secant_tanh`: what NAME_implicit differentiates for the joint's slope in u.  A tanh of
+    the coordinate alone (MJCF's held limit stretch) stays tanh."""
+    return t.replace(lambda e: isinstance(e, sm.tanh) and e.args[0].has(u), lambda e: secant_tanh(e.args[0]))
 
 
 def limit_spring(d, e):

@@ -41,7 +41,7 @@ from .lowered import LoweredBody
 from .recorder import Recorder
 from .rnea import rnea
 from .velocities import velocities
-from .joint_laws import ramp, step
+from .joint_laws import ramp, secant_friction, step
 from .constrained import (accelerations, check_functions, kane_form, kkt_residual, kkt_solve,
                           lower_loops, multiplier_symbols, tree_loops)
 from .derivatives import articulated_solve, solve_symbols
@@ -660,7 +660,9 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_
         # unilateral limit is not engaged); ramp's derivative is the step function
         t = layout.apply(tau, what, memo).replace(sm.Abs, lambda a: 2 * ramp(a) - a)
         qs, us = layout.x[qi], layout.x[nq + k]
-        dq, du = _law_slopes(t, qs, us, law_memo)
+        # the friction's slope in u is its secant (joint_laws.secant_tanh: the tangent, nil in a
+        # fast slip, left the friction explicit and the step gained energy)
+        dq, du = _law_slopes(secant_friction(t, us), qs, us, law_memo)
         out[at["joint"] + 2 * k] = -du
         if sm.simplify(kin[qi] - us) == 0:        # q' = u: dq/du of the step is h
             out[at["joint"] + 2 * k + 1] = -dq

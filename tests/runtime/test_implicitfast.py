@@ -309,3 +309,70 @@ def test_n_products_skip_only_the_constant_zeros_of_n(tmp_path):
     assert a.stats["nfev"] > 201                       # split steps: the ratio decides here
     assert a.stats["nfev"] == b.stats["nfev"] and a.stats["nlu"] == b.stats["nlu"]
     assert np.array_equal(a.x.view(np.int64), b.x.view(np.int64))
+
+
+# a light rod on a vertical hinge (no gravity torque) with a large joint friction, over a floor (its
+# contacts make the fast path NAME_implicit): f / I ~ 1e6 rad/s^2, so friction stops it within a
+# microsecond from 0.5-5 rad/s
+FRICTION_ROD = """<mujoco><option timestep="0.002"/><worldbody><geom name="floor" type="plane" size="1 1 0.1"/>
+<body pos="0 0 1"><joint name="hinge" type="hinge" axis="0 0 1" frictionloss="10"/>
+<geom type="capsule" fromto="0 0 0 0.05 0 0" size="0.005" mass="0.01"/></body></worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("u0", [0.5, 5.0])
+def test_joint_friction_stops_a_light_joint_and_never_pushes_it(tmp_path, u0):
+    """The fast path's matrix takes the joint friction -f tanh(u/v) by its secant slope f tanh(u/v)/u
+    (compiler/tree/joint_laws.secant_tanh).  With the tangent, nil in a fast slip, the friction was
+    an explicit force: on this rod the step split to its smallest sub-steps (131 model calls for 10
+    steps) and the rod turned on at 0.5 rad/s with status 0, though friction stops it within a
+    microsecond (Radau at 1e-9: 1.1e-7 rad travelled).  Oracles: Coulomb friction only slows a joint
+    (|u| falls, its sign stays, the energy never rises), Radau's final angle, and the slope in
+    NAME_implicit's out[] against its closed form, f/v at rest."""
+    from helpers.implicit_call import implicit_terms_at
+    from helpers.mjcf_builds import text_model
+    m = text_model(FRICTION_ROD, "frod", tmp_path, ("rhs", "jac_x", "outputs", "energy", "implicit"))
+    names, pn = list(m.state_names), list(m.param_names)
+    f, v = (float(m.param_defaults[pn.index(n)]) for n in ("friction_hinge", "friction_v_hinge"))
+    for u in (0.0, 1e-3, -0.02, u0):
+        out, layout = implicit_terms_at(m, np.array([0.0, u]))
+        want = f / v if u == 0 else f * np.tanh(u / v) / u
+        assert out[layout["joint"]] == pytest.approx(want, rel=1e-13)     # -dtau/du: the secant
+    x0 = np.array([0.0, u0])
+    run = m.simulate(x0, (0.0, 0.02), method="implicitfast", dt=0.002)
+    u = run.x[:, names.index("u_hinge")]
+    assert run.stats["nfev"] <= 15 and np.all(np.diff(np.abs(u)) <= 0) and np.all(u >= 0)
+    assert abs(u[1]) < 0.05 * u0                        # stopped within the first step
+    assert np.all(np.diff(run.outputs["energy"]) <= 1e-15)
+    ref = m.simulate(x0, (0.0, 0.02), method="radau", rtol=1e-9, atol=1e-12)
+    # the angle travelled: Radau's 1.1e-7 rad; the step's end speed held over the first step, 2x that
+    # (first order at a stop 1e5 times shorter than the step); free of friction it would be u0 t = 0.01
+    assert 0 < ref.x[-1, 0] < run.x[-1, 0] < 4 * ref.x[-1, 0]
+
+
+def test_friction_secant_in_lanes_and_in_float(tmp_path):
+    """eomc_tanhc (the secant's helper) has its lanes twin (compiler/emit/batch.py: the rows' slopes
+    the scalar helper's bits, so the lanes rollout equals the scalar one with libm's sin/cos) and its
+    float twin (the c99-f32 target); both targets' C is clean under the strict flags."""
+    from eomc.compiler.driver import generate
+    from helpers.mjcf_builds import text_model
+    m = text_model(FRICTION_ROD, "frod_lanes", tmp_path, ("rhs", "jac_x", "implicit", "implicit_batch"),
+                   cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
+    X0 = np.column_stack([np.zeros(11), np.linspace(-5.0, 5.0, 11)])      # one row at rest
+    kw = dict(dt=0.002, steps=10, method="implicitfast", threads=1)
+    scalar, lanes = eomc.rollout(m, X0, **kw), eomc.rollout(m, X0, lanes=True, **kw)
+    assert scalar.ok.all() and np.array_equal(scalar.x, lanes.x)
+    assert np.all(np.abs(scalar.x[:, 1]) < 1e-9)       # every row stopped
+    from eomc.compiler.mjcf.model import MjcfModel
+    from helpers.emit_support import compile_shared
+    path = tmp_path / "frod32.xml"
+    path.write_text(FRICTION_ROD)
+    for target, name in (("c99-f64", "frod64"), ("c99-f32", "frod32")):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            _, gm = generate(MjcfModel(path), name, functions=("rhs", "implicit"), target=target,
+                             cache_dir=tmp_path / name, progress=False)
+        real = "float" if target == "c99-f32" else "double"
+        assert f"static inline {real} eomc_tanhc({real} x)" in gm.c_source
+        # strict flags, -Werror (gcc's message if not); a one-speed tree's NAME_tree_lu declared an
+        # unused variable until session 53
+        compile_shared(gm, tmp_path)
