@@ -27,8 +27,8 @@ def implicit_refusal(why, remedy):
     """The message refusing a requested ``implicit``: what it is and needs, why this build cannot
     have it, what to do; the user's words first (bodies, contacts, options), no formulation
     internals before the reason."""
-    return (f"implicit (the terms of method='implicitfast' on contacts) needs a tree of bodies with "
-            f"ground contacts, built by the recursive formulation: {why}; {remedy}, or build without "
+    return (f"implicit (the terms of method='implicitfast') needs a tree of bodies, with ground contacts "
+            f"where its bodies touch, built by the recursive formulation: {why}; {remedy}, or build without "
             f"'implicit' (implicitfast then steps with jac_x)")
 
 

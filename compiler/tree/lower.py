@@ -645,7 +645,9 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_
         out[at["qd"] + i] = e
         for j, u in enumerate(speeds):
             out[at["N"] + i * nu + j] = sm.diff(e, u)
-    for k, screw in implicit["screws"].items():      # named with M (.crba.world_screws)
+    # named with M (.crba.world_screws); none in a tree without contacts placed in the world (the fast
+    # path reads the screws for its contacts' Jacobians only)
+    for k, screw in implicit.get("screws", {}).items():
         for a in range(6):
             out[at["screw"] + 6 * k + a] = screw[a]
     coords = list(tree.coordinates)

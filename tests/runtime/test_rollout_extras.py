@@ -190,6 +190,33 @@ def test_auto_rows_equal_simulate_auto():
         np.testing.assert_array_equal(res.x[i], one.x_final)
 
 
+def test_allegro_with_its_implicit_terms_runs_clean(tmp_path):
+    """The rows below that jac_x's fixed step fails for created energy (the fingers' joint friction,
+    f = 10 N m on links of grams, linearised by its tangent: nil in a slip) run clean with the
+    model's NAME_implicit, asked for (a tree without contacts has it on request since session 53):
+    the fast path takes the friction by its secant.  Oracle: the energy (no source in the hand)
+    never rises over any row's steps, and the statuses of the same starts without it."""
+    from helpers.robots import robot_path
+    from eomc.compiler.emit.signatures import FUNCTION_ORDER, ON_REQUEST
+    path = str(robot_path("allegro_hand_description/urdf/allegro_left_hand.urdf"))
+    default = tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = eomc.compile(path, name="allegro_imp", cache_dir=tmp_path, functions=default + ("implicit",), progress=False)
+    assert "implicit" in m.metadata and not m.metadata["implicit"]["contacts"]
+    X0 = np.tile(np.array(m.initial_state, dtype=float), (16, 1))
+    X0[:, m.nq:] = np.random.default_rng(0).uniform(-0.5, 0.5, (16, m.nu))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = rollout(m, X0, steps=200, dt=0.001, threads=2, raise_on_failure=False)
+        assert res.method == "implicitfast" and res.clean.all()
+        for i in (0, 4, 11):
+            one = simulate(m, X0[i], (0.0, 0.2), method="implicitfast", dt=0.001)
+            E = one.outputs["energy"]
+            assert np.all(E <= E[0] * (1 + 1e-12)) and one.stats["nfev"] <= 260
+            np.testing.assert_array_equal(one.x[-1], res.x[i])
+
+
 def test_rows_judged_with_record_final_get_simulates_energy_verdict(tmp_path):
     """Session 52 (rollout_sweep.py --urdf): example-robot-data's Allegro hand at 1 ms runs
     implicitfast without its fast path (joint limits, no ground contacts) through this module.  With
