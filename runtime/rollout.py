@@ -14,6 +14,10 @@ bdf, auto; final states), inputs per row (constant or a control sequence on a ti
 (NAME_implicit: they are forces in its matrix, no switching points needed).  Feedback gains per
 row (constant or scheduled in time), events, and contacts or limits under the other methods
 (switching points per row, in C) run through runtime/rollout_extras.py.
+
+A call is a plan (``_Plan``: the arguments' checks, the method, simulate's prepared options, the
+path the rows take, its C set-up) and the plan's run (the rows' own checks, the C loop, the
+verdicts); ``eomc.Rollout`` (runtime/rollout_session.py) keeps plans and runs them call after call.
 """
 import numbers
 import os
