@@ -87,7 +87,8 @@ class Rollout:
         plan = _Plan(self.model, X0, P, p_stride, steps=steps, t_final=t_final, method=self.method,
                      **self._options)
         if self.method is None:     # chosen on these rows; kept, so every call runs the same method
-            self.method = plan.method
+            # (without dt, "auto" itself: it picks per row as simulate does, switching stiff rows to Radau)
+            self.method = "auto" if plan.auto else plan.method
         self._plans[(n, steps, t_final)] = plan
         while len(self._plans) > PLANS_KEPT:
             self._plans.popitem(last=False)

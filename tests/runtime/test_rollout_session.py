@@ -46,6 +46,17 @@ def test_calls_equal_rollout_call_after_call(options):
     assert ro.method == ("dop853" if "method" in options and options["method"] == "dop853" else "rk4")
 
 
+def test_method_none_without_dt_stays_auto():
+    """Without dt, method=None is "auto", which picks per row (DOP853, stiff rows on with Radau):
+    kept as "auto", not as the method its first rows ran, so later calls equal rollout's."""
+    m = get_model("pendulum")
+    ro = Rollout(m)
+    for seed in range(2):
+        X0 = _starts(4, seed)
+        _same(ro(X0, t_final=0.5), rollout(m, X0, t_final=0.5))
+    assert ro.method == "auto"
+
+
 def test_inputs_per_call_and_per_row_parameters():
     """Inputs change every call (an RL agent's actions); p with one row per trajectory."""
     m = get_model("oscillator")
