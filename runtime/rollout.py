@@ -470,7 +470,7 @@ def _run_rows(plan, X0, controls, X_out, X_last, status, nstep, raise_on_failure
     s = plan.setup()
     ffi, lib, opt = s.ffi, s.lib, s.opt
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
-    unsolved = ranges = None
+    unsolved = ranges = stats = None
     if n:
         n_rgrid, r_tgrid, R, r_stride = controls
         # implicitfast: each row's stats, whose rejected count is the (sub-)steps left unsolved
@@ -501,7 +501,7 @@ def _run_rows(plan, X0, controls, X_out, X_last, status, nstep, raise_on_failure
             if s.watch:
                 ranges = watched_rows(columns, s.nspring)
     messages = (_energy_verdicts(model, plan.a, X0, plan.P, plan.p_stride, controls, plan.t_eval, X_out, X_last,
-                                 status, ranges) if plan.fast else {})
+                                 status, ranges, stats=stats if ranges is not None else None) if plan.fast else {})
     return _finish(model, method, X0, plan.P, plan.p_stride, plan.dt, plan.t_eval, plan.record, X_out, X_last,
                    status, nstep, raise_on_failure, unsolved=unsolved if n and method == "implicitfast" else None,
                    messages=messages)
@@ -551,7 +551,7 @@ def _energy_fn(model, ffi):
     return energy_fn(model, ffi)
 
 
-def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status, watched=None):
+def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status, watched=None, stats=None):
     """simulate's energy verdict on each implicitfast fast-path row that ran to the end
     (switching.energy_verdict: the same conditions, tolerance and numbers): a row that created
     energy gets status 20 (STATUS_ENERGY, in place) and simulate's message, returned as {row:
@@ -564,12 +564,22 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     for them when they share parameters and constant inputs, else one per row); only
     rows whose energy rose past energy_tolerance (below it the verdict says nothing) go through the
     verdict's Python, and only the row the warning quotes is run again to name what touched down
-    where its total rose (switching.place_finder; record="steps": from its recorded states)."""
+    where its total rose (switching.place_finder; record="steps": from its recorded states).
+    stats: the run's eomc_stats array (cdata) behind ``watched``, for the first look in C
+    (:func:`_screened`), None: the look in numpy."""
     sw = find_switches(model)
-    rows = np.flatnonzero(status == 0)
     # a model built without its outputs function (functions=("rhs", "implicit")) names its energy
     # output but cannot evaluate it: not judged, as simulate, whose run then has no outputs
-    if not sw or "energy" not in model.output_names or not rows.size or model.c_model.outputs == model.ffi.NULL:
+    # (_energy_watch: those three tests, kept on the model -- "energy" in a humanoid's ~200 output
+    # names was 7 us a call)
+    if not _energy_watch(model):
+        return {}
+    rtol = energy_tolerance(a["rtol"], a["atol"])
+    screened = _screened(model, sw, X0, X_last, P, p_stride, controls, float(t_eval[-1]), status, stats, rtol)
+    if screened is not None and not screened[1]:
+        return {}       # no row's energy rose (or none ran to the end): the common case, decided in C
+    rows = np.flatnonzero(status == 0)
+    if not rows.size:
         return {}
     energy, depth = _verdict_columns(model, sw)
     t = np.array([0.0, float(t_eval[-1])])
@@ -583,7 +593,7 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
         b["n_r"], b["r_t"], b["r_v"] = _row_inputs(controls, i, model.ninput)
         return b
 
-    E = _row_energies(model, rows, t, X, P, p_stride, controls)
+    E = screened[0][rows] if screened is not None else _row_energies(model, rows, t, X, P, p_stride, controls)
     out = None
     if E is None:       # no NAME_energy (or inputs on a grid): the whole outputs give the energy column
         out = _row_outputs(model, row_args, rows, t, X, p_stride, controls)
@@ -592,7 +602,6 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     if watched is not None:     # [start, lowest, highest, end]: the whole run's gain and scale
         seen = np.concatenate([E[:, :1], watched.column("lo")[rows, None], watched.column("hi")[rows, None],
                                E[:, 1:]], axis=1)
-    rtol = energy_tolerance(a["rtol"], a["atol"])
     with np.errstate(invalid="ignore"):
         # (ndarray methods rather than np.max: the same reductions without numpy's Python dispatch)
         scale = np.maximum(np.maximum(np.abs(seen[:, 0]), np.abs(seen - seen[:, :1]).max(axis=1)), 1e-300)
@@ -655,6 +664,36 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
                                      f"{', '.join(map(str, seen_rows[:8]))}{', ...' if len(seen_rows) > 8 else ''}); "
                                      f"row {i}: {w}"), stacklevel=_user_level())
     return messages
+
+
+def _screened(model, sw, X0, X_last, P, p_stride, controls, t_end, status, stats, rtol):
+    """(E, flagged): every row's energy at its start and end ((n, 2): _row_energies's numbers, NaN
+    for a row not run) and how many rows the verdict must look at closer -- their energy over
+    [start, watch's lowest, highest, end] rose above the start beyond rtol of its scale, or their
+    total above its running minimum -- in one C call (eomc_energy_screen, runtime/c/eomc_rows.c:
+    the numpy below, operation for operation); None where that call does not apply (no NAME_energy,
+    inputs on a grid, no stats, an integrator library without it).  Why: with nothing flagged, the
+    common case, the verdict's numpy was ~45 of a one-row, one-step eomc.Rollout call's ~75 us
+    (the RL pattern: a call per environment step)."""
+    screen = getattr(getattr(model, "integrators", None), "eomc_energy_screen", None)
+    k_r, _, R, r_stride = controls
+    if screen is None or stats is None or k_r > 1 or model.model_lib is None:
+        return None
+    fn, zeros = _energy_rows_fn(model)
+    if fn is None:
+        return None
+    ffi, n, nx = model.ffi, X0.shape[0], model.nx
+    Rr = zeros if not k_r else np.reshape(R, (1 if r_stride == 0 else -1, model.ninput))
+    Pc, Rc = np.ascontiguousarray(P, dtype=np.float64), np.ascontiguousarray(Rr, dtype=np.float64)
+    X0c, Xl = np.ascontiguousarray(X0, dtype=np.float64), np.ascontiguousarray(X_last, dtype=np.float64)
+    E, flag = np.empty((n, 2)), np.empty(n, dtype=np.uint8)
+    work = np.empty(max(int(model.work_size), 1))
+    buf = ffi.from_buffer
+    flagged = screen(fn, n, t_end, buf("double[]", X0c), buf("double[]", Xl), nx, buf("double[]", Pc),
+                     Pc.shape[1] if p_stride else 0, buf("double[]", Rc), Rc.shape[1] if Rc.shape[0] > 1 else 0,
+                     buf("int[]", status), stats, int(total_known(model, sw)), rtol, buf("double[]", E),
+                     buf("unsigned char[]", flag), buf("double[]", work))
+    return E, int(flagged)
 
 
 def _row_outputs(model, row_args, rows, t, X, p_stride, controls):

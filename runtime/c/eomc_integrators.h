@@ -423,6 +423,24 @@ int eomc_mat_rows(eomc_mat_fn fn, size_t n, const double *t, const double *X, si
                   const double *p, const double *r, double *out, size_t nout,
                   double *work, size_t *failed_row);
 
+/*
+ * The energy verdict's first look at a rollout's rows (eomc_rows.c; runtime/rollout.py
+ * _energy_verdicts): for each row i < n whose status[i] is 0, its energy at the start and the
+ * end, E[2i] = energy(0, X0[i]) and E[2i+1] = energy(t_end, X_last[i]) (NaN where the call fails
+ * or is not finite; rows not run: NaN), with row i's parameters P + i * p_stride and inputs
+ * R + i * r_stride (a stride 0: one row shared; R may be NULL), and whether the verdict must look
+ * closer: its energy over [start, stats' watch_lo, watch_hi, end] (stats NULL: [start, end]) rose
+ * above its start by more than rtol times its scale, or (total_known, stats given) the watch's
+ * total rose above its running minimum by more than rtol times the total's scale -- numpy's
+ * arithmetic, NaN included (a NaN anywhere: not flagged).  Returns the number of rows flagged
+ * (flag[i] = 1); 0, the common case, leaves nothing for Python to do.
+ */
+size_t eomc_energy_screen(eomc_mat_fn energy, size_t n, double t_end, const double *X0,
+                          const double *X_last, size_t nx, const double *P, size_t p_stride,
+                          const double *R, size_t r_stride, const int *status,
+                          const eomc_stats *stats, int total_known, double rtol, double *E,
+                          unsigned char *flag, double *work);
+
 #ifdef __cplusplus
 }
 #endif

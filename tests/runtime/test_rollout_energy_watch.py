@@ -334,9 +334,130 @@ def test_the_verdict_reads_each_rows_energy_by_name_energy_and_the_outputs_only_
     eomc.rollout(hopper, X0, **kw)
     assert 0 < sum(asked) < len(X0)           # only the rows whose energy rose
     monkeypatch.setattr(rollout_module, "_row_energies", lambda *a: None)     # the whole outputs, as before
+    monkeypatch.setattr(rollout_module, "_screened", lambda *a: None)         # and the first look in numpy
     with warnings.catch_warnings(record=True) as before:
         warnings.simplefilter("always")
         old = eomc.rollout(hopper, X0, **kw)
     assert (fast.status == 20).any()           # the unchecked step created energy in some rows
     np.testing.assert_array_equal(fast.status, old.status)
     assert fast.messages == old.messages and [str(w.message) for w in seen] == [str(w.message) for w in before]
+
+
+def _numpy_look(E, cols, rtol, known):
+    """The verdict's first look as _energy_verdicts wrote it in numpy before eomc_energy_screen:
+    which rows' energy rose beyond rtol of its scale, or whose total rose above its running minimum."""
+    seen = np.concatenate([E[:, :1], cols["lo"][:, None], cols["hi"][:, None], E[:, 1:]], axis=1)
+    with np.errstate(invalid="ignore"):
+        scale = np.maximum(np.maximum(np.abs(seen[:, 0]), np.abs(seen - seen[:, :1]).max(axis=1)), 1e-300)
+        gain, tol = seen.max(axis=1) - seen[:, 0], rtol * scale
+        risen = np.zeros(len(E), dtype=bool)
+        if known:
+            T0 = cols["total0"]
+            tscale = np.maximum.reduce([np.abs(T0), cols["total_hi"] - T0, T0 - cols["total_lo"],
+                                        np.full(T0.shape, 1e-300)])
+            risen = cols["rise"] > rtol * tscale
+    return (gain > tol) | risen
+
+
+def _screen(model, X0, Xl, P, p_stride, status, stats, rtol, known):
+    """(E, flags, count): eomc_energy_screen called directly, its total_known given."""
+    ffi, n = model.ffi, len(X0)
+    fn, zeros = rollout_module._energy_rows_fn(model)
+    E, flag, work = np.empty((n, 2)), np.empty(n, dtype=np.uint8), np.empty(max(int(model.work_size), 1))
+    Pc, buf = np.ascontiguousarray(P), ffi.from_buffer
+    count = model.integrators.eomc_energy_screen(
+        fn, n, 0.5, buf("double[]", np.ascontiguousarray(X0)), buf("double[]", np.ascontiguousarray(Xl)), model.nx,
+        buf("double[]", Pc), Pc.shape[1] if p_stride else 0, buf("double[]", zeros), 0, buf("int[]", status), stats,
+        int(known), rtol, buf("double[]", E), buf("unsigned char[]", flag), buf("double[]", work))
+    return E, flag.astype(bool), int(count)
+
+
+def _edge(E0, rtol):
+    """(the largest watch_hi numpy's look does not flag, the next double, which it does) for a row
+    whose start and end energies are both E0 and lowest value E0 (scale |E0|)."""
+    tol = rtol * max(abs(E0), 1e-300)
+    hi = E0 + tol
+    while hi - E0 > tol:
+        hi = np.nextafter(hi, -np.inf)
+    while not hi - E0 > tol:
+        hi = np.nextafter(hi, np.inf)
+    return np.nextafter(hi, -np.inf), hi
+
+
+@pytest.mark.parametrize("known", [True, False])
+def test_the_first_look_in_c_is_numpys(hopper, known):
+    """eomc_energy_screen (runtime/c/eomc_rows.c) flags the rows numpy's look flagged, NaN and the
+    tolerance's edge included, and gives NAME_energy's start and end values (NaN for a row not run).
+    Why: a rollout with nothing flagged returns without any more of the verdict (~45 of a one-row
+    Rollout call's ~75 us were that numpy), so a row it missed would keep status 0 on created energy."""
+    from eomc.runtime.rollout_result import _rollout_ffi
+    rng = np.random.default_rng(11)
+    n, rtol = 400, 1e-4
+    x0 = np.array(hopper.initial_state, dtype=float)
+    X0 = x0 + rng.normal(scale=0.2, size=(n, hopper.nx))
+    Xl = x0 + rng.normal(scale=0.2, size=(n, hopper.nx))
+    Xl[:2] = X0[:2]                                     # rows 0 and 1: the tolerance's edge, below
+    P, p_stride = rollout_module._params(hopper, None, n)
+    E_ref = np.array([[_energy(hopper, a), _energy(hopper, b)] for a, b in zip(X0, Xl)])
+    status = np.zeros(n, dtype=np.intc)
+    status[3::37] = 20                                  # rows not run to the end: not looked at
+    E0, span = E_ref[:, 0], np.abs(E_ref[:, 0]) + 1.0
+    cols = {"lo": E0 - rng.uniform(0, 1, n) * span, "total0": E0.copy(), "total_lo": E0 - span, "total_hi": E0 + span,
+            "hi": E0 + rng.choice([0.0, 1e-7, 1e-5, 1e-3], n) * span, "rise": rng.choice([0.0, 1e-7, 1e-5, 1e-3], n) * span}
+    cols["lo"][:2], cols["rise"][:2] = E0[:2], 0.0
+    cols["hi"][0], cols["hi"][1] = _edge(E0[0], rtol)
+    for k, name in zip((5, 6, 7, 8, 9), ("lo", "hi", "total0", "rise", "total_hi")):
+        cols[name][k] = np.nan                          # NaN anywhere: not flagged (numpy's maximum carries it)
+    cols["hi"][5], cols["rise"][5] = 1e3 * span[5], 0.0     # (row 5: flagged but for its NaN lowest value)
+    stats = _rollout_ffi(hopper.ffi)[0].new("eomc_stats[]", n)
+    for i in range(n):
+        for name, values in cols.items():
+            setattr(stats[i], f"watch_{name}", float(values[i]))
+    E, flags, count = _screen(hopper, X0, Xl, P, p_stride, status, stats, rtol, known)
+    ran = status == 0
+    np.testing.assert_array_equal(E[ran], E_ref[ran])
+    assert np.isnan(E[~ran]).all()
+    want = _numpy_look(E_ref, cols, rtol, known) & ran
+    assert 0 < want.sum() < ran.sum() and count == int(want.sum())
+    np.testing.assert_array_equal(flags, want)
+    assert not flags[0] and flags[1] and not flags[5]
+    # the rollout's own call of it (rollout._screened) asks the same, with the model's total_known
+    if known == rollout_module.total_known(hopper, rollout_module.find_switches(hopper)):
+        got, got_count = rollout_module._screened(hopper, rollout_module.find_switches(hopper), X0, Xl, P, p_stride,
+                                                  (0, None, None, 0), 0.5, status, stats, rtol)
+        np.testing.assert_array_equal(got, E)
+        assert got_count == count
+
+
+def test_the_first_look_flags_only_beyond_the_tolerance(hopper):
+    """A gain or a rise of exactly the tolerance is not flagged, the next double is (numpy's
+    ``gain > tol``): one row, its energy's start and end the same, its rtol found so that
+    rtol * scale is the gain to the last bit."""
+    from eomc.runtime.rollout_result import _rollout_ffi
+    x0 = np.array(hopper.initial_state, dtype=float)[None, :]
+    P, p_stride = rollout_module._params(hopper, None, 1)
+    E0 = _energy(hopper, x0[0])
+    rtol = 0.01
+    for _ in range(4096):               # an rtol whose tolerance rtol * |E0| is a gain hi - E0 exactly
+        if (E0 + rtol * abs(E0)) - E0 == rtol * abs(E0):
+            break
+        rtol = np.nextafter(rtol, 1.0)
+    hi = E0 + rtol * abs(E0)
+    assert hi - E0 == rtol * abs(E0)
+    stats = _rollout_ffi(hopper.ffi)[0].new("eomc_stats[]", 1)
+    status = np.zeros(1, dtype=np.intc)
+    T0, span = E0, abs(E0)
+    for top, rise, want in ((hi, 0.0, False), (np.nextafter(hi, np.inf), 0.0, True)):
+        cols = {"lo": E0, "hi": top, "total0": T0, "total_lo": T0 - span, "total_hi": T0 + span, "rise": rise}
+        for name, value in cols.items():
+            setattr(stats[0], f"watch_{name}", float(value))
+        _, flags, _ = _screen(hopper, x0, x0, P, p_stride, status, stats, rtol, False)
+        assert flags[0] == want == _numpy_look(np.array([[E0, E0]]), {k: np.array([v]) for k, v in cols.items()},
+                                               rtol, False)[0]
+    tscale = max(abs(T0), span)         # the total's scale: |T0|, hi - T0, T0 - lo
+    for rise, want in ((rtol * tscale, False), (np.nextafter(rtol * tscale, np.inf), True)):
+        cols = {"lo": E0, "hi": E0, "total0": T0, "total_lo": T0 - span, "total_hi": T0 + span, "rise": rise}
+        for name, value in cols.items():
+            setattr(stats[0], f"watch_{name}", float(value))
+        _, flags, _ = _screen(hopper, x0, x0, P, p_stride, status, stats, rtol, True)
+        assert flags[0] == want
