@@ -461,3 +461,23 @@ def test_the_first_look_flags_only_beyond_the_tolerance(hopper):
             setattr(stats[0], f"watch_{name}", float(value))
         _, flags, _ = _screen(hopper, x0, x0, P, p_stride, status, stats, rtol, True)
         assert flags[0] == want
+
+
+@pytest.mark.parametrize("fields", [None, ("rejected", "watch_lo", "watch_rise")])
+def test_the_stats_columns_are_the_structs_fields(hopper, fields):
+    """rollout._stats_columns reads eomc_stats[n] through one copy of its memory (8-byte fields as
+    strided words, else numpy's structured view): every field of every row as cffi reads it."""
+    from eomc.runtime.rollout_result import _rollout_ffi
+    ffi = _rollout_ffi(hopper.ffi)[0]
+    rng, n = np.random.default_rng(3), 5
+    stats = ffi.new("eomc_stats[]", n)
+    each = ffi.typeof("eomc_stats").fields
+    for i in range(n):
+        for name, f in each:
+            integer = f.type.cname in ("long", "int")
+            setattr(stats[i], name, int(rng.integers(-2**30, 2**30)) if integer else float(rng.normal()))
+    cols = rollout_module._stats_columns(ffi, stats, n, fields)
+    assert set(cols) == {name for name, _ in each} if fields is None else set(fields)
+    for name, values in cols.items():
+        np.testing.assert_array_equal(values, [getattr(stats[i], name) for i in range(n)])
+        assert values.dtype.kind == ("i" if dict(each)[name].type.cname in ("long", "int") else "f")
