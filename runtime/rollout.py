@@ -682,7 +682,7 @@ def _screened(model, sw, X0, X_last, P, p_stride, controls, t_end, status, stats
     for a row not run) and how many rows the verdict must look at closer -- their energy over
     [start, watch's lowest, highest, end] rose above the start beyond rtol of its scale, or their
     total above its running minimum -- in one C call (eomc_energy_screen, runtime/c/eomc_rows.c:
-    the numpy below, operation for operation); None where that call does not apply (no NAME_energy,
+    _energy_verdicts's numpy look, operation for operation); None where that call does not apply (no NAME_energy,
     inputs on a grid, no stats, an integrator library without it).  Why: with nothing flagged, the
     common case, the verdict's numpy was ~45 of a one-row, one-step eomc.Rollout call's ~75 us
     (the RL pattern: a call per environment step)."""
